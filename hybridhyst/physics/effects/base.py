@@ -1,0 +1,142 @@
+"""The effect interface: one physical term of a nominal model.
+
+An effect owns named parameters (each a parameter function of the operating condition, constrained by
+its ``ParameterSpec``), an optional internal state with its rate equation, and contributes in one of
+three ways:
+
+* a resisting force ``force(p, kin, state)`` summed by the structure (most effects);
+* an input transformation: ``transform`` maps the kinematics seen by the effects after it
+  (backlash/play operator) or ``input_delay`` shifts the time at which the input is read (time delay);
+* an added mass ``added_mass`` (inertia).
+
+Effects never loop over time (STYLE rule 4): they return rates and forces for one instant, batched as
+``(batch,)`` tensors; ``hybridhyst.simulate`` integrates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import ClassVar
+
+import torch
+from torch import nn
+
+from ..parameters import Fixed, ParameterSpec, build_function, render_unit
+
+__all__ = ["Effect", "Kinematics", "abs_pow", "smooth_sign"]
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """What an effect sees at one instant; every field has shape ``(batch,)``.
+
+    x, v : displacement and velocity the effect acts on (the excitation for a ``Constitutive`` model,
+        the relative or absolute coordinate for a ``DrivenOscillator``), after input operators.
+    u, du : the raw input (excitation or drive) and its rate.
+    a : acceleration of the excitation (used by inertia in a ``Constitutive`` model).
+    """
+
+    x: torch.Tensor
+    v: torch.Tensor
+    u: torch.Tensor
+    du: torch.Tensor
+    a: torch.Tensor
+
+    def moved(self, x: torch.Tensor, v: torch.Tensor) -> "Kinematics":
+        return replace(self, x=x, v=v)
+
+
+def smooth_sign(v: torch.Tensor, width: torch.Tensor) -> torch.Tensor:
+    """tanh(v / width): the smoothed sign used by every friction term (width > 0, in velocity units)."""
+    return torch.tanh(v / width)
+
+
+def abs_pow(z: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
+    """|z|^n with a finite value and gradient (w.r.t. z and n) at z = 0 for n > 0."""
+    a = z.abs()
+    safe = torch.where(a > 0, a, torch.ones_like(a))
+    return torch.where(a > 0, safe**n, torch.zeros_like(a))
+
+
+class Effect(nn.Module):
+    """Base class of every effect. Subclasses set ``specs`` and override what they contribute.
+
+    Parameters
+    ----------
+    fixed : names of parameters held constant (stored as buffers, not trained).
+    **values : parameter values: numbers, parameter-function configs (``{"kind": "linear", ...}``)
+        or ``ParameterFunction`` modules. Missing parameters take ``spec.default``.
+    """
+
+    specs: ClassVar[dict[str, ParameterSpec]] = {}
+    state_dim: ClassVar[int] = 0
+    name: ClassVar[str] = "effect"
+    equation: ClassVar[str] = ""
+    source: ClassVar[str] = ""
+
+    def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
+        super().__init__()
+        unknown = set(values) - set(self.specs)
+        if unknown:
+            raise ValueError(
+                f"effect {self.name!r} has no parameter(s) {sorted(unknown)}; its parameters are {sorted(self.specs)}"
+            )
+        bad_fixed = set(fixed) - set(self.specs)
+        if bad_fixed:
+            raise ValueError(f"effect {self.name!r}: cannot fix unknown parameter(s) {sorted(bad_fixed)}")
+        self.params = nn.ModuleDict()
+        self.param_specs: dict[str, ParameterSpec] = dict(self.specs)
+        for pname, spec in self.specs.items():
+            value = values.get(pname)
+            if pname in fixed:
+                value = spec.default if value is None else value
+                if not isinstance(value, (int, float)):
+                    raise ValueError(f"effect {self.name!r}: a fixed parameter {pname!r} must be a number")
+                self.params[pname] = Fixed(value)
+            else:
+                self.params[pname] = build_function(value, spec)
+
+    # -- parameters -------------------------------------------------------------------------------
+    def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> dict[str, torch.Tensor]:
+        """Parameter values for a batch: name -> ``(batch,)`` tensor."""
+        return {pname: fn(conditions, batch) for pname, fn in self.params.items()}
+
+    def describe(self, units: dict[str, str] | None = None) -> dict[str, dict[str, str]]:
+        """Parameter name -> {value (or function), unit} for reports."""
+        return {
+            pname: {"value": fn.describe(), "unit": render_unit(self.param_specs[pname].unit, units)}
+            for pname, fn in self.params.items()
+        }
+
+    # -- contributions (defaults: contributes nothing) --------------------------------------------
+    def initial_state(self, p: dict[str, torch.Tensor], batch: int) -> torch.Tensor:
+        ref = next(iter(p.values())) if p else torch.zeros(())
+        return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
+
+    def rate(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> torch.Tensor:
+        """Time derivative of the internal state, ``(batch, state_dim)``."""
+        raise NotImplementedError(f"effect {self.name!r} declares state_dim={self.state_dim} but no rate()")
+
+    def force(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> torch.Tensor | None:
+        """Resisting force ``(batch,)`` in response units, or None when the effect adds no force."""
+        return None
+
+    def transform(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> Kinematics:
+        """Kinematics seen by the effects listed after this one (input operators override)."""
+        return kin
+
+    def input_delay(self, p: dict[str, torch.Tensor]) -> torch.Tensor | None:
+        """Delay ``(batch,)`` [t] with which the structure reads its input, or None."""
+        return None
+
+    def added_mass(self, p: dict[str, torch.Tensor]) -> torch.Tensor | None:
+        """Mass ``(batch,)`` [F*t^2/x] added to the structure (inertia), or None."""
+        return None
+
+    def add_parameter(self, pname: str, value, spec: ParameterSpec) -> None:
+        """Register a parameter that exists only in some configurations (e.g. a free Bouc–Wen κ)."""
+        self.param_specs[pname] = spec
+        self.params[pname] = build_function(value, spec)
+
+    def extra_repr(self) -> str:
+        return self.equation

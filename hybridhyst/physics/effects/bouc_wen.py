@@ -1,0 +1,65 @@
+"""Bouc–Wen hysteretic state (general D, A, β, γ, n form of seed 001)."""
+
+from __future__ import annotations
+
+from ..parameters import ParameterSpec
+from .base import Effect, Kinematics, abs_pow
+
+
+class BoucWenHysteresis(Effect):
+    """Bouc–Wen hysteresis with an elastic/hysteretic split and seed 001's cubic term.
+
+    Force and state (seed 001 eqs. 1–2 with eq. 2's misplaced |z| corrected)::
+
+        F  = α (k x + k1 x³) + (1 − α) κ z          κ = D k unless given
+        ż  = (A v − β |v| |z|^(n−1) z − γ v |z|^n) / D
+
+    ``v`` is the velocity of the effect's coordinate (``driven_by="motion"``) or the input rate
+    (``driven_by="input"``: seed 003's piezo hysteresis h, driven by the voltage rate).
+
+    Special cases: classic Bouc–Wen (seed 004: D = 1, k1 = 0, κ = k), the benchmark of Noël & Schoukens
+    (α = 0, κ = 1, D = 1, A = α_BW, β = β_BW γ_BW, γ = β_BW δ_BW), seed 003 (α = 0, κ = K_p / i_ratio).
+
+    Units (literal convention of the source; for seed 001 x in deg, F in Nm): k [F/x], k1 [F/x^3],
+    κ [F/z], z in x units times A/D, D, A, β, γ [-] in that literal sense, n [-]. Raw Bouc–Wen
+    parameters trade off (D, A, α, k); compare responses or identifiable combinations, not raw values.
+    Shapes: (batch,); state (batch, 1).
+    """
+
+    name = "bouc_wen"
+    state_dim = 1
+    equation = "F = a(k x + k1 x^3) + (1-a) kappa z;  D dz/dt = A v - beta|v||z|^(n-1) z - gamma v |z|^n"
+    source = "seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
+    specs = {
+        "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "real", doc="ratio of elastic to total stiffness"),
+        "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", doc="stiffness"),
+        "k1": ParameterSpec(0.0, "F/x^3", (-1e9, 1e9), "real", neutral=0.0, doc="cubic stiffness (seed 001)"),
+        "D": ParameterSpec(1.0, "-", (1e-3, 1e3), "positive", doc="rate divisor (yield scale)"),
+        "A": ParameterSpec(1.0, "-", (0.0, 1e6), "real", doc="hysteretic gain"),
+        "beta": ParameterSpec(0.5, "-", (-1e6, 1e6), "real", doc="shape parameter (|v| term)"),
+        "gamma": ParameterSpec(0.5, "-", (-1e6, 1e6), "real", doc="shape parameter (v term)"),
+        "n": ParameterSpec(1.0, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),
+    }
+
+    def __init__(self, driven_by: str = "motion", kappa=None, **values):
+        if driven_by not in ("motion", "input"):
+            raise ValueError(f"bouc_wen: driven_by must be 'motion' or 'input', got {driven_by!r}")
+        super().__init__(**values)
+        self.driven_by = driven_by
+        self.free_kappa = kappa is not None
+        if self.free_kappa:
+            self.add_parameter("kappa", kappa, ParameterSpec(1.0, "F/x", (-1e9, 1e9), "real", doc="hysteretic force per unit z"))
+
+    def _kappa(self, p):
+        return p["kappa"] if self.free_kappa else p["D"] * p["k"]
+
+    def rate(self, p, kin: Kinematics, state):
+        z = state[:, 0]
+        v = kin.v if self.driven_by == "motion" else kin.du
+        zn = abs_pow(z, p["n"])
+        dz = (p["A"] * v - p["beta"] * v.abs() * zn * z.sign() - p["gamma"] * v * zn) / p["D"]
+        return dz[:, None]
+
+    def force(self, p, kin: Kinematics, state):
+        x = kin.x
+        return p["alpha"] * (p["k"] * x + p["k1"] * x**3) + (1 - p["alpha"]) * self._kappa(p) * state[:, 0]

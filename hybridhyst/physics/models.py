@@ -1,0 +1,242 @@
+"""Nominal models as compositions of effects.
+
+Two structures cover the seeds:
+
+* ``Constitutive`` — a damper law: the excitation x(t) is prescribed (measured), the response is the
+  sum of the effects' forces, and effects with internal state (Bouc–Wen z, Dahl, LuGre) are integrated
+  along the excitation history. Seeds 000, 002, 004 and the BRFD friction damper.
+* ``DrivenOscillator`` — m ẍ + Σ F_e(x, ẋ, z_e) = g·u for a force drive, or with the effects acting on
+  the relative coordinate x − u for a kinematic (base) excitation. The Bouc–Wen benchmark, seed 003's
+  piezo actuator, seed 001's two-mass rig.
+
+Both expose the same integration interface to ``hybridhyst.simulate``: ``evaluate`` (parameter values
+for a batch of conditions), ``initial_state``, ``derivative`` and ``output``; shapes are batch-first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+from .effects.base import Effect, Kinematics
+from .parameters import ParameterSpec, build_function, render_unit
+
+__all__ = ["Constitutive", "DrivenOscillator", "InputSample", "NominalModel"]
+
+Params = dict[str, dict[str, torch.Tensor]]
+STRUCTURE = "structure"
+
+
+@dataclass(frozen=True)
+class InputSample:
+    """The input at one instant: value, rate and second rate, each ``(batch,)``."""
+
+    u: torch.Tensor
+    du: torch.Tensor
+    ddu: torch.Tensor
+
+
+def _named_effects(effects) -> nn.ModuleDict:
+    if isinstance(effects, nn.ModuleDict):
+        return effects
+    if hasattr(effects, "items"):
+        items = list(effects.items())
+    else:
+        items = []
+        seen: dict[str, int] = {}
+        for effect in effects:
+            base = effect.name
+            seen[base] = seen.get(base, 0) + 1
+            items.append((base if seen[base] == 1 else f"{base}_{seen[base]}", effect))
+    for key, effect in items:
+        if not isinstance(effect, Effect):
+            raise ValueError(f"model effect {key!r} is a {type(effect).__name__}, not an Effect")
+        if key == STRUCTURE:
+            raise ValueError(f"'{STRUCTURE}' is reserved; rename that effect")
+    return nn.ModuleDict(dict(items))
+
+
+class NominalModel(nn.Module):
+    """Common machinery: named effects, structure parameters, state layout, kinematics pass."""
+
+    base_state_dim = 0
+    structure_specs: dict[str, ParameterSpec] = {}
+
+    def __init__(self, effects, units: dict[str, str] | None = None, name: str = "model", **structure_values):
+        super().__init__()
+        self.name = name
+        self.effects = _named_effects(effects)
+        self.units = {"t": "s", "x": "x", "F": "F", "u": "u", **(units or {})}
+        unknown = set(structure_values) - set(self.structure_specs)
+        if unknown:
+            raise ValueError(
+                f"{type(self).__name__} has no structure parameter(s) {sorted(unknown)}; "
+                f"it has {sorted(self.structure_specs)}"
+            )
+        self.structure_params = nn.ModuleDict(
+            {k: build_function(structure_values.get(k), spec) for k, spec in self.structure_specs.items()}
+        )
+        offsets, start = {}, self.base_state_dim
+        for key, effect in self.effects.items():
+            offsets[key] = (start, start + effect.state_dim)
+            start += effect.state_dim
+        self._offsets = offsets
+        self.state_dim = start
+
+    # -- parameters -------------------------------------------------------------------------------
+    def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> Params:
+        """All parameter values for a batch of operating conditions: {effect: {name: (batch,)}}."""
+        out = {key: effect.evaluate(conditions, batch) for key, effect in self.effects.items()}
+        out[STRUCTURE] = {k: fn(conditions, batch) for k, fn in self.structure_params.items()}
+        return out
+
+    def describe(self) -> dict[str, dict[str, dict[str, str]]]:
+        """{effect: {parameter: {value, unit}}} with units rendered in the model's unit system."""
+        out = {key: effect.describe(self.units) for key, effect in self.effects.items()}
+        if self.structure_params:
+            out[STRUCTURE] = {
+                k: {"value": fn.describe(), "unit": render_unit(self.structure_specs[k].unit, self.units)}
+                for k, fn in self.structure_params.items()
+            }
+        return out
+
+    def input_delay(self, P: Params) -> torch.Tensor | None:
+        delays = [d for key, e in self.effects.items() if (d := e.input_delay(P[key])) is not None]
+        return sum(delays) if delays else None
+
+    # -- state --------------------------------------------------------------------------------------
+    def initial_state(self, P: Params, batch: int, base: torch.Tensor | None = None) -> torch.Tensor:
+        ref = P[STRUCTURE] or next(iter(P.values()))
+        ref = next(iter(ref.values())) if ref else torch.zeros(())
+        parts = []
+        if self.base_state_dim:
+            if base is None:
+                base = torch.zeros(batch, self.base_state_dim, dtype=ref.dtype, device=ref.device)
+            parts.append(base.to(ref.dtype))
+        parts += [e.initial_state(P[k], batch) for k, e in self.effects.items() if e.state_dim]
+        if not parts:
+            return torch.zeros(batch, 0, dtype=ref.dtype, device=ref.device)
+        return torch.cat(parts, dim=1)
+
+    def _effects_pass(self, kin: Kinematics, state: torch.Tensor, P: Params, need_rates: bool):
+        """Go through the effects in order: total force, added mass and (optionally) state rates."""
+        force = torch.zeros_like(kin.x)
+        mass = None
+        rates = []
+        for key, effect in self.effects.items():
+            lo, hi = self._offsets[key]
+            s = state[:, lo:hi]
+            p = P[key]
+            if effect.state_dim and need_rates:
+                rates.append(effect.rate(p, kin, s))
+            f = effect.force(p, kin, s)
+            if f is not None:
+                force = force + f
+            m = effect.added_mass(p)
+            if m is not None:
+                mass = m if mass is None else mass + m
+            kin = effect.transform(p, kin, s)
+        return force, mass, rates
+
+    # -- to be provided by the structure ----------------------------------------------------------
+    @property
+    def output_dim(self) -> int:
+        raise NotImplementedError
+
+    def derivative(self, state: torch.Tensor, inp: InputSample, P: Params) -> torch.Tensor:
+        raise NotImplementedError
+
+    def output(self, state: torch.Tensor, inp: InputSample, P: Params) -> torch.Tensor:
+        raise NotImplementedError
+
+
+class Constitutive(NominalModel):
+    """Damper law: y(t) = Σ_e F_e(x, ẋ, z_e) + m ẍ, with ż_e = r_e(x, ẋ, z_e) along the prescribed x(t).
+
+    Input channel 0 is the excitation x [x]; output channel 0 the response [F]. Shapes: the simulator
+    passes ``(batch,)`` tensors per instant and returns ``(batch, time, 1)``.
+    """
+
+    @property
+    def output_dim(self) -> int:
+        return 1
+
+    @staticmethod
+    def _kinematics(inp: InputSample) -> Kinematics:
+        return Kinematics(x=inp.u, v=inp.du, u=inp.u, du=inp.du, a=inp.ddu)
+
+    def derivative(self, state, inp, P):
+        _, _, rates = self._effects_pass(self._kinematics(inp), state, P, need_rates=True)
+        if not rates:
+            return torch.zeros_like(state)
+        return torch.cat(rates, dim=1)
+
+    def output(self, state, inp, P):
+        force, mass, _ = self._effects_pass(self._kinematics(inp), state, P, need_rates=False)
+        if mass is not None:
+            force = force + mass * inp.ddu
+        return force[:, None]
+
+
+class DrivenOscillator(NominalModel):
+    """Single-DOF oscillator driven by a force or a base motion.
+
+    Force drive (``excitation="force"``)::       m ẍ + Σ_e F_e(x, ẋ, z_e) = g · u(t)
+    Base excitation (``excitation="base"``)::    m ẍ + Σ_e F_e(x − u, ẋ − u̇, z_e) = 0
+
+    m [F*t^2/x] is the mass (or inertia; seed 001 uses I = 0.51 in its literal deg/Nm units), g
+    [F/u] the drive gain (1 for a force input; K_p d33 / i_ratio for seed 003's voltage input).
+    Inertia effects add to m. State: [x, ẋ, effect states]. ``outputs`` picks the returned channels
+    from "x", "v", "a" (absolute motion of the mass) and "force" (Σ F_e, e.g. the damper torque).
+    """
+
+    base_state_dim = 2
+    structure_specs = {
+        "mass": ParameterSpec(1.0, "F*t^2/x", (1e-12, 1e12), "positive", doc="mass or inertia"),
+        "drive_gain": ParameterSpec(1.0, "F/u", (-1e12, 1e12), "real", doc="force per unit input"),
+    }
+    _OUTPUTS = ("x", "v", "a", "force")
+
+    def __init__(self, effects, units=None, name="model", excitation: str = "force",
+                 outputs: tuple[str, ...] | list[str] | str = ("x",), fixed: tuple[str, ...] = (), **structure):
+        if excitation not in ("force", "base"):
+            raise ValueError(f"DrivenOscillator: excitation must be 'force' or 'base', got {excitation!r}")
+        outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)
+        bad = [o for o in outputs if o not in self._OUTPUTS]
+        if bad or not outputs:
+            raise ValueError(f"DrivenOscillator: unknown output(s) {bad}; choose from {self._OUTPUTS}")
+        for key in fixed:
+            if key not in self.structure_specs:
+                raise ValueError(f"DrivenOscillator: cannot fix unknown structure parameter {key!r}")
+            structure[key] = {"kind": "fixed", "value": float(structure.get(key, self.structure_specs[key].default))}
+        super().__init__(effects, units, name, **structure)
+        self.excitation = excitation
+        self.outputs = outputs
+
+    @property
+    def output_dim(self) -> int:
+        return len(self.outputs)
+
+    def _kinematics(self, state, inp):
+        x, v = state[:, 0], state[:, 1]
+        if self.excitation == "base":
+            x, v = x - inp.u, v - inp.du
+        return Kinematics(x=x, v=v, u=inp.u, du=inp.du, a=torch.zeros_like(x))
+
+    def _acceleration(self, force, mass, inp, P):
+        m = P[STRUCTURE]["mass"] if mass is None else P[STRUCTURE]["mass"] + mass
+        drive = P[STRUCTURE]["drive_gain"] * inp.u if self.excitation == "force" else torch.zeros_like(force)
+        return (drive - force) / m
+
+    def derivative(self, state, inp, P):
+        force, mass, rates = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=True)
+        acc = self._acceleration(force, mass, inp, P)
+        return torch.cat([state[:, 1:2], acc[:, None], *rates], dim=1)
+
+    def output(self, state, inp, P):
+        force, mass, _ = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=False)
+        channels = {"x": lambda: state[:, 0], "v": lambda: state[:, 1], "force": lambda: force,
+                    "a": lambda: self._acceleration(force, mass, inp, P)}
+        return torch.stack([channels[o]() for o in self.outputs], dim=1)

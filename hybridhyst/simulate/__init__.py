@@ -1,0 +1,6 @@
+"""The only place where time is integrated (see DESIGN.md "Packages and their one job")."""
+
+from .api import simulate as simulate
+from .fixed import ORDER as ORDER
+
+__all__ = ["ORDER", "simulate"]

@@ -1,0 +1,178 @@
+"""``simulate``: the one entry point for integrating a nominal model over time."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import torch
+
+from .adaptive import integrate_adaptive
+from .fixed import integrate_fixed
+from .inputs import delayed, with_rates
+
+__all__ = ["simulate"]
+
+
+def _model_dtype(model) -> torch.dtype:
+    for p in model.parameters():
+        return p.dtype
+    for b in model.buffers():
+        return b.dtype
+    return torch.get_default_dtype()
+
+
+def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Tensor] | None:
+    if conditions is None:
+        return None
+    out = {}
+    for key, value in dict(conditions).items():
+        if isinstance(value, str) or (isinstance(value, (list, tuple, np.ndarray)) and len(value)
+                                      and isinstance(np.asarray(value).flat[0], str)):
+            continue  # categorical conditions (e.g. kind) are not model inputs
+        v = torch.as_tensor(np.asarray(value, dtype=np.float64) if not torch.is_tensor(value) else value,
+                            dtype=dtype, device=device)
+        if v.ndim == 0:
+            v = v.expand(batch)
+        if v.shape != (batch,):
+            raise ValueError(f"condition {key!r} has shape {tuple(v.shape)}; give a scalar or one value per batch row ({batch})")
+        out[key] = v
+    return out
+
+
+def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Tensor]:
+    """Group records sharing a time grid into one batch each; return one ``(time, output_dim)`` per record."""
+    from ..data.records import Record, RecordSet
+
+    if isinstance(records, Record):
+        records = [records]
+    records = list(records.records if isinstance(records, RecordSet) else records)
+    groups: dict[tuple, list[int]] = {}
+    for i, r in enumerate(records):
+        key = (len(r), float(r.t[0]), float(r.t[-1]))
+        groups.setdefault(key, []).append(i)
+    out: list[torch.Tensor | None] = [None] * len(records)
+    for idx in groups.values():
+        group = [records[i] for i in idx]
+        cols = []
+        for r in group:
+            chans = []
+            for c in input_channels:
+                if c == "x":
+                    chans.append(r.x)
+                elif c in r.extra:
+                    chans.append(r.extra[c])
+                else:
+                    raise ValueError(f"record {r.name!r} has no channel {c!r}; it has x, y and {sorted(r.extra)}")
+            cols.append(np.stack(chans, axis=-1))
+        keys = sorted({k for r in group for k in r.conditions})
+        conditions = {}
+        for k in keys:
+            vals = [r.conditions.get(k) for r in group]
+            if all(isinstance(v, numbers.Number) for v in vals):
+                conditions[k] = np.asarray(vals, dtype=np.float64)
+        ys = simulate(model, np.stack(cols), t=group[0].t, conditions=conditions, **kwargs)
+        for j, i in enumerate(idx):
+            out[i] = ys[j]
+    return out
+
+
+def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None, initial_state=None,
+             method: str = "rk4", substeps: int = 1, solver: str = "fixed", rtol: float = 1e-7,
+             atol: float = 1e-9, adjoint: bool = False, options: dict | None = None,
+             return_states: bool = False, input_channels: tuple[str, ...] = ("x",)):
+    """Integrate ``model`` along an input history.
+
+    Parameters
+    ----------
+    model : ``Constitutive`` or ``DrivenOscillator`` (any ``NominalModel``).
+    inputs : tensor/array ``(batch, time)`` or ``(batch, time, C)`` with C = 1 (u), 2 (u, u̇) or
+        3 (u, u̇, ü); missing rates are finite differences. Or a ``Record``, a ``RecordSet`` or a list
+        of records: then ``t`` and ``conditions`` come from the records, ``input_channels`` names the
+        channels used (``"x"`` and extra channels such as ``"velocity"``), and the result is a list with
+        one ``(time, output_dim)`` tensor per record.
+    t : sample times ``(time,)`` [s], strictly increasing; or give ``dt`` for a uniform grid from 0.
+    conditions : {name: scalar or (batch,)} operating conditions for parameter functions.
+    initial_state : ``(batch, 2)`` initial [x, ẋ] of an oscillator, or the full ``(batch, state_dim)``.
+    method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4") and sub-steps per
+        sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq method
+        (e.g. "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``.
+    return_states : also return the states ``(batch, time, state_dim)``.
+
+    Returns
+    -------
+    ``(batch, time, output_dim)`` tensor (and the states), differentiable w.r.t. every model parameter.
+    """
+    from ..data.records import Record, RecordSet
+
+    if isinstance(inputs, (Record, RecordSet)) or (isinstance(inputs, (list, tuple)) and inputs
+                                                    and isinstance(inputs[0], Record)):
+        if return_states:
+            raise ValueError("return_states is not available when simulating records; pass tensors instead")
+        return _simulate_records(model, inputs, input_channels, initial_state=initial_state, method=method,
+                                 substeps=substeps, solver=solver, rtol=rtol, atol=atol, adjoint=adjoint,
+                                 options=options)
+
+    dtype = _model_dtype(model)
+    u = torch.as_tensor(inputs, dtype=dtype)
+    if u.ndim == 2:
+        u = u[..., None]
+    if u.ndim != 3:
+        raise ValueError(f"inputs must be (batch, time) or (batch, time, channels), got shape {tuple(u.shape)}")
+    B, T, _ = u.shape
+    if T < 2:
+        raise ValueError(f"inputs have {T} time sample(s); simulation needs at least 2")
+    if not torch.isfinite(u).all():
+        bad = (~torch.isfinite(u)).nonzero()[0].tolist()
+        raise ValueError(f"inputs contain NaN/inf (first at batch {bad[0]}, sample {bad[1]}); clean the input first")
+    if t is None:
+        if dt is None:
+            raise ValueError("give the sample times t or a sample interval dt")
+        t = torch.arange(T, dtype=dtype) * float(dt)
+    t = torch.as_tensor(t, dtype=dtype, device=u.device)
+    if t.shape != (T,):
+        raise ValueError(f"t has shape {tuple(t.shape)} but inputs have {T} samples")
+    if not bool((t[1:] > t[:-1]).all()):
+        raise ValueError("t must be strictly increasing")
+
+    cond = _as_conditions(conditions, B, dtype, u.device)
+    P = model.evaluate(cond, B)
+    U = with_rates(u, t)
+    tau = model.input_delay(P)
+    if tau is not None:
+        U = delayed(U, t, tau)
+
+    if initial_state is not None:
+        initial_state = torch.as_tensor(initial_state, dtype=dtype, device=u.device)
+        if initial_state.ndim == 1:
+            initial_state = initial_state.expand(B, -1)
+        if initial_state.shape[1] == model.state_dim and model.state_dim != model.base_state_dim:
+            state0 = initial_state
+        elif initial_state.shape[1] == model.base_state_dim:
+            state0 = model.initial_state(P, B, base=initial_state)
+        else:
+            raise ValueError(
+                f"initial_state has {initial_state.shape[1]} columns; give {model.base_state_dim} "
+                f"(the structure's [x, v]) or {model.state_dim} (the full state)"
+            )
+    else:
+        state0 = model.initial_state(P, B)
+
+    if solver == "fixed":
+        states = integrate_fixed(model, U, t, P, state0, method=method, substeps=substeps)
+    elif solver == "torchdiffeq":
+        m = "dopri5" if method == "rk4" else method
+        states = integrate_adaptive(model, U, t, cond, state0, method=m, rtol=rtol, atol=atol,
+                                    adjoint=adjoint, options=options)
+    else:
+        raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
+
+    # outputs for all samples in one vectorised call: flatten (batch, time) -> rows
+    S = states.shape[-1]
+    flat_states = states.reshape(B * T, S)
+    from ..physics.models import InputSample
+
+    Uf = U.reshape(B * T, 3)
+    Pf = {k: {n: v.repeat_interleave(T) for n, v in d.items()} for k, d in P.items()}
+    y = model.output(flat_states, InputSample(Uf[:, 0], Uf[:, 1], Uf[:, 2]), Pf).reshape(B, T, -1)
+    return (y, states) if return_states else y
