@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-__all__ = ["Record", "RecordSet"]
+__all__ = ["Record", "RecordSet", "validate_channels"]
 
 
-def _rows(mask: np.ndarray, limit: int = 5) -> str:
-    idx = np.flatnonzero(mask)
+def _rows(mask: np.ndarray, rows: np.ndarray | None = None, limit: int = 5) -> str:
+    idx = np.flatnonzero(mask) if rows is None else np.asarray(rows)[np.asarray(mask, dtype=bool)]
     if len(idx) == 0:
         return ""
     # group consecutive rows into ranges: "120-122, 400"
@@ -24,6 +24,69 @@ def _rows(mask: np.ndarray, limit: int = 5) -> str:
     groups.append((start, prev))
     text = ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in groups[:limit])
     return text + (f" and {len(groups) - limit} more ranges" if len(groups) > limit else "")
+
+
+def _plain(value):
+    """numpy scalars -> Python scalars, so conditions print as 0.5, not np.float64(0.5)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def validate_channels(where: str, channels: dict, labels: dict | None = None, rows: np.ndarray | None = None,
+                      time: str = "t") -> dict[str, np.ndarray]:
+    """Check the channels of one record and return them as float64 arrays.
+
+    Parameters
+    ----------
+    where : what the record is, for messages (e.g. ``"file 'a.csv', record 'p=0.05'"``).
+    channels : ``{channel: array (time,)}``; ``time`` names the time channel.
+    labels : ``{channel: text}`` naming a channel in messages (default ``"channel 'x'"``), e.g.
+        ``"column 'torque'"`` when reading a file.
+    rows : row numbers reported in messages for each sample (default ``0 .. time-1``), e.g. the rows
+        of the file the samples came from.
+
+    Raises
+    ------
+    ValueError
+        Naming the record, the channel and the offending rows, for a non-1-D channel, mismatched
+        lengths, no samples, NaN/inf values, duplicate timestamps or time not increasing.
+    """
+    labels = {k: (labels or {}).get(k, f"channel {k!r}") for k in channels}
+    arrays = {}
+    for key, arr in channels.items():
+        a = np.asarray(arr, dtype=np.float64)
+        if a.ndim != 1:
+            raise ValueError(f"{where}: {labels[key]} must be one-dimensional, got shape {a.shape}")
+        arrays[key] = a
+    n = len(arrays[time])
+    for key, a in arrays.items():
+        if len(a) != n:
+            raise ValueError(
+                f"{where}: {labels[key]} has {len(a)} samples but {labels[time]} has {n}; "
+                "all channels of a record must have the same length"
+            )
+    if n == 0:
+        raise ValueError(f"{where}: no samples; remove the empty record or check the file")
+    rows = np.arange(n) if rows is None else np.asarray(rows)
+    for key, a in arrays.items():
+        bad = ~np.isfinite(a)
+        if bad.any():
+            kind = "NaN" if np.isnan(a[bad]).all() else "non-finite (NaN/inf)"
+            raise ValueError(
+                f"{where}: {labels[key]} has {int(bad.sum())} {kind} values (rows {_rows(bad, rows)}); "
+                "drop or interpolate them"
+            )
+    dt = np.diff(arrays[time])
+    if (dt == 0).any():
+        raise ValueError(
+            f"{where}: {labels[time]} has duplicate timestamps at rows {_rows(np.r_[dt == 0, False], rows)}; "
+            "drop the repeated samples or average them"
+        )
+    if (dt < 0).any():
+        raise ValueError(
+            f"{where}: {labels[time]} is not increasing at rows {_rows(np.r_[dt < 0, False], rows)}; "
+            "sort the samples by time or fix the time column"
+        )
+    return arrays
 
 
 @dataclass
@@ -47,44 +110,10 @@ class Record:
 
     def __post_init__(self):
         where = f"record {self.name!r}" + (f" ({self.source})" if self.source else "")
-        channels = {"t": self.t, "x": self.x, "y": self.y, **self.extra}
-        arrays = {}
-        for key, arr in channels.items():
-            a = np.asarray(arr, dtype=np.float64)
-            if a.ndim != 1:
-                raise ValueError(f"{where}: channel {key!r} must be one-dimensional, got shape {a.shape}")
-            arrays[key] = a
-        n = len(arrays["t"])
-        for key, a in arrays.items():
-            if len(a) != n:
-                raise ValueError(
-                    f"{where}: channel {key!r} has {len(a)} samples but time has {n}; "
-                    "all channels of a record must have the same length"
-                )
-        if n == 0:
-            raise ValueError(f"{where}: no samples; remove the empty record or check the file")
-        for key, a in arrays.items():
-            bad = ~np.isfinite(a)
-            if bad.any():
-                kind = "NaN" if np.isnan(a[bad]).all() else "non-finite (NaN/inf)"
-                raise ValueError(
-                    f"{where}: channel {key!r} has {int(bad.sum())} {kind} values (rows {_rows(bad)}); "
-                    "drop or interpolate them"
-                )
-        dt = np.diff(arrays["t"])
-        if (dt == 0).any():
-            raise ValueError(
-                f"{where}: duplicate timestamps at rows {_rows(np.r_[dt == 0, False])}; "
-                "drop the repeated samples or average them"
-            )
-        if (dt < 0).any():
-            raise ValueError(
-                f"{where}: time is not increasing at rows {_rows(np.r_[dt < 0, False])}; "
-                "sort the samples by time or fix the time column"
-            )
+        arrays = validate_channels(where, {"t": self.t, "x": self.x, "y": self.y, **self.extra})
         self.t, self.x, self.y = arrays["t"], arrays["x"], arrays["y"]
         self.extra = {k: arrays[k] for k in self.extra}
-        self.conditions = dict(self.conditions)
+        self.conditions = {k: _plain(v) for k, v in dict(self.conditions).items()}
         self.units = {"t": "s", **dict(self.units)}
 
     def __len__(self) -> int:
@@ -100,7 +129,7 @@ class Record:
         d = np.diff(self.t)
         return bool(len(d) == 0 or np.allclose(d, d[0], rtol=1e-6, atol=0))
 
-    def slice(self, start: int | None = None, stop: int | None = None, name: str | None = None) -> "Record":
+    def slice(self, start: int | None = None, stop: int | None = None, name: str | None = None) -> Record:
         """Samples ``start:stop`` as a new record (same conditions and units)."""
         sl = slice(start, stop)
         return Record(
@@ -156,3 +185,85 @@ class RecordSet:
 
     def __repr__(self) -> str:
         return f"RecordSet({self.name!r}, {len(self)} records, conditions={list(self.conditions.columns)})"
+
+    # -- choosing records by condition ---------------------------------------------------------------
+    def select(self, query=None, /, **conditions) -> RecordSet:
+        """The records matching a condition query, in their original order.
+
+        Parameters
+        ----------
+        query : optional callable ``query(record) -> bool``.
+        **conditions : ``condition=value`` or ``condition=[values]``; a record must match every
+            condition given (and one of the listed values of each). Numbers match within a relative
+            tolerance of 1e-9.
+
+        Examples
+        --------
+        >>> records.select(tension_lb=36, amplitude_in=[0.5, 1.5])          # doctest: +SKIP
+        >>> records.select(lambda r: r.conditions["pressure_mpa"] > 0.03)    # doctest: +SKIP
+
+        Raises
+        ------
+        ValueError
+            If a condition is unknown or a listed value matches no record.
+        """
+        from .splits import condition_mask
+
+        mask = np.ones(len(self), dtype=bool)
+        if query is not None:
+            mask &= condition_mask(self.records, query, "selected", self.name)
+        if conditions:
+            mask &= condition_mask(self.records, conditions, "selected", self.name)
+        return self._subset(mask)
+
+    def split(self, held_out=None, val=None):
+        """Train / validation / test sets by operating condition.
+
+        Parameters
+        ----------
+        held_out : ``{condition: [values]}`` or callable ``(record) -> bool``: the test records (the
+            conditions the model must generalise to), e.g. ``{"amplitude_in": [1.0]}``.
+        val : the same kind of query for validation records, chosen among those not held out.
+
+        Returns
+        -------
+        ``Split(train, val, test)``, a named tuple of ``RecordSet``; every record is in exactly one.
+
+        Raises
+        ------
+        ValueError
+            If a held-out or validation value matches no record, or no training record is left.
+        """
+        from .splits import Split, condition_mask
+
+        test = condition_mask(self.records, held_out, "held-out", self.name)
+        valid = condition_mask(self.records, val, "validation", self.name) & ~test
+        train = ~(test | valid)
+        if not train.any():
+            raise ValueError(
+                f"split of record set {self.name!r} leaves no training records: held_out={held_out!r} and "
+                f"val={val!r} cover all {len(self)} records; hold out fewer condition values"
+            )
+        return Split(self._subset(train), self._subset(valid), self._subset(test))
+
+    def _subset(self, mask: np.ndarray) -> RecordSet:
+        return RecordSet([r for r, keep in zip(self.records, mask, strict=True) if keep], self.name)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Long table: one row per sample with columns record, t, x, y, extra channels and conditions.
+
+        ``frame.attrs["units"]`` holds the units of the first record. ``read_table(path,
+        record="record", conditions=[...])`` reads a saved frame back.
+        """
+        frames = []
+        for r in self.records:
+            cols = {"record": np.full(len(r), r.name, dtype=object), "t": r.t, "x": r.x, "y": r.y, **r.extra}
+            frame = pd.DataFrame(cols)
+            for key, value in r.conditions.items():
+                frame[key] = value
+            frames.append(frame)
+        if not frames:
+            return pd.DataFrame(columns=["record", "t", "x", "y"])
+        out = pd.concat(frames, ignore_index=True)
+        out.attrs["units"] = dict(self.records[0].units)
+        return out

@@ -1,0 +1,9 @@
+"""Physics: constrained parameters, the effect library, structures and the seeds' compositions."""
+
+from .build import build_effect as build_effect
+from .build import build_model as build_model
+from .models import Constitutive as Constitutive
+from .models import DrivenOscillator as DrivenOscillator
+from .models import NominalModel as NominalModel
+
+__all__ = ["Constitutive", "DrivenOscillator", "NominalModel", "build_effect", "build_model"]

@@ -3,11 +3,21 @@
 Adding an effect = writing one file with an ``Effect`` subclass and listing it here.
 """
 
+from .asymmetric_coulomb import AsymmetricCoulomb as AsymmetricCoulomb
+from .attenuation import Attenuation as Attenuation
+from .backlash import Backlash as Backlash
 from .base import Effect as Effect
 from .base import Kinematics as Kinematics
 from .bouc_wen import BoucWenHysteresis as BoucWenHysteresis
+from .bouc_wen_p import BoucWenNormalised as BoucWenNormalised
 from .coulomb import Coulomb as Coulomb
+from .cubic_stiffness import CubicStiffness as CubicStiffness
+from .dahl import Dahl as Dahl
+from .inertia import Inertia as Inertia
 from .linear_stiffness import LinearStiffness as LinearStiffness
+from .lugre import LuGre as LuGre
+from .stribeck import Stribeck as Stribeck
+from .time_delay import TimeDelay as TimeDelay
 from .viscous import Viscous as Viscous
 
 EFFECTS: dict[str, type[Effect]] = {
@@ -15,9 +25,37 @@ EFFECTS: dict[str, type[Effect]] = {
     for cls in (
         Viscous,
         Coulomb,
+        AsymmetricCoulomb,
+        Stribeck,
         LinearStiffness,
+        CubicStiffness,
         BoucWenHysteresis,
+        BoucWenNormalised,
+        Dahl,
+        LuGre,
+        Backlash,
+        Inertia,
+        Attenuation,
+        TimeDelay,
     )
 }
 
-__all__ = ["EFFECTS", "BoucWenHysteresis", "Coulomb", "Effect", "Kinematics", "LinearStiffness", "Viscous"]
+__all__ = [
+    "EFFECTS",
+    "AsymmetricCoulomb",
+    "Attenuation",
+    "Backlash",
+    "BoucWenHysteresis",
+    "BoucWenNormalised",
+    "Coulomb",
+    "CubicStiffness",
+    "Dahl",
+    "Effect",
+    "Inertia",
+    "Kinematics",
+    "LinearStiffness",
+    "LuGre",
+    "Stribeck",
+    "TimeDelay",
+    "Viscous",
+]

@@ -1,0 +1,53 @@
+"""Error metrics between a prediction and a measurement (numpy or torch, any shape)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _np(a) -> np.ndarray:
+    if hasattr(a, "detach"):
+        a = a.detach().cpu().numpy()
+    return np.asarray(a, dtype=np.float64)
+
+
+def _pair(pred, target):
+    p, t = _np(pred), _np(target)
+    if p.shape != t.shape:
+        raise ValueError(f"prediction has shape {p.shape} but the measurement has {t.shape}")
+    return p, t
+
+
+def rmse(pred, target) -> float:
+    """Root-mean-square error, in the response's unit."""
+    p, t = _pair(pred, target)
+    return float(np.sqrt(np.mean((p - t) ** 2)))
+
+
+def mae(pred, target) -> float:
+    """Mean absolute error, in the response's unit."""
+    p, t = _pair(pred, target)
+    return float(np.mean(np.abs(p - t)))
+
+
+def nrmse(pred, target) -> float:
+    """RMSE divided by the measurement's standard deviation (0 = perfect, 1 = predicting the mean)."""
+    p, t = _pair(pred, target)
+    return rmse(p, t) / float(np.std(t))
+
+
+def r2(pred, target) -> float:
+    """Coefficient of determination 1 − SS_res / SS_tot."""
+    p, t = _pair(pred, target)
+    return float(1.0 - np.sum((p - t) ** 2) / np.sum((t - t.mean()) ** 2))
+
+
+def relative_error(pred, target) -> float:
+    """Relative RMS error sqrt(Σ (F_meas − F_model)² / Σ F_meas²).
+
+    Seed 004's formula (5) prints sqrt((Σ F_emp² − F_BW²)/Σ F_emp²), which is malformed (it can be
+    imaginary and is zero for any model with the same energy); the evident intent is the norm of the
+    difference, used here.
+    """
+    p, t = _pair(pred, target)
+    return float(np.sqrt(np.sum((t - p) ** 2) / np.sum(t**2)))

@@ -1,0 +1,110 @@
+"""The short Markdown report and the loop figure of ``hybridhyst-fit``, generated from its summary.
+
+(Comparison tables across run directories belong to ``hybridhyst.report``; this file only renders one
+fit run.)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from .common import atomic_write
+
+__all__ = ["write_loop_figure", "write_report"]
+
+
+def write_loop_figure(path: Path, frame: pd.DataFrame, units: dict[str, str], title: str) -> Path:
+    """Force–displacement loop of one record, measured vs model, as PNG (written atomically).
+
+    ``frame`` has columns x, y (measured) and y_model, on the evaluation grid.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.0, 4.5), dpi=120)
+    ax.plot(frame["x"], frame["y"], color="0.6", lw=0.8, label="measured")
+    ax.plot(frame["x"], frame["y_model"], color="C3", lw=1.0, label="model")
+    ax.set_xlabel(f"displacement [{units.get('x', '')}]")
+    ax.set_ylabel(f"force [{units.get('y', '')}]")
+    ax.set_title(f"{title} (held out)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best")
+    fig.tight_layout()
+    atomic_write(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+    return path
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return "" if value is None else str(value)
+
+
+def _parameter_lines(parameters: dict) -> list[str]:
+    lines = ["| effect | parameter | value | unit |", "|---|---|---|---|"]
+    for effect, params in parameters.items():
+        for name, info in params.items():
+            value = _fmt(info["value"]) + (" (fixed)" if info.get("fixed") else "")
+            lines.append(f"| {effect} | {name} | {value} | {info['unit']} |")
+    return lines
+
+
+def _record_lines(summary: dict, names: list[str], unit: str) -> list[str]:
+    keys = sorted({k for n in names for k in summary["conditions"].get(n, {})})
+    lines = ["| record | " + " | ".join(keys) + f" | RMSE [{unit}] |", "|---" * (len(keys) + 2) + "|"]
+    for n in names:
+        cond = summary["conditions"].get(n, {})
+        cells = " | ".join(_fmt(cond.get(k)) for k in keys)
+        lines.append(f"| {n} | {cells} | {summary['per_record'][n]:.3f} |")
+    return lines
+
+
+def _reference_lines(summary: dict, unit: str) -> list[str]:
+    ref = summary.get("reference")
+    model = summary.get("model") or "this model"
+    lines = [f"| model | held-out RMSE [{unit}] |", "|---|---|",
+             f"| **{model} (this run)** | **{summary['rmse']['held_out']:.3f}** |"]
+    if ref:
+        lines += [f"| {name} (reference) | {value:.2f} |" for name, value in ref["held_out_rmse"].items()]
+        lines += ["", f"Reference numbers: {ref['source']}."]
+    return lines
+
+
+def write_report(path: Path, summary: dict) -> Path:
+    """``report.md``: data and split, fitted parameters with units, held-out RMSE per record, the
+    comparison with the reference numbers, and the loop figure."""
+    unit = summary["units"].get("y", "")
+    fit = summary["fit"]
+    steps = ", ".join(f"{k} {v}" for k, v in fit["steps"].items())
+    lines = [
+        f"# Fit report: {summary.get('model', '')}",
+        "",
+        f"Training records ({len(summary['split']['train'])}): {', '.join(summary['split']['train'])}.  ",
+        f"Held-out records ({len(summary['split']['held_out'])}): {', '.join(summary['split']['held_out'])}.",
+        "",
+        f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}) on {fit['samples']} "
+        f"decimated samples in {fit['wall_s']:.1f} s; whole run {summary['wall_s']:.1f} s.",
+        "",
+        "## Fitted parameters",
+        "",
+        *_parameter_lines(summary["parameters"]),
+        "",
+        "## Held-out error per condition",
+        "",
+        *_record_lines(summary, summary["split"]["held_out"], unit),
+        "",
+        f"Pooled RMSE over all samples: train {summary['rmse']['train']:.3f} {unit}, "
+        f"held out {summary['rmse']['held_out']:.3f} {unit}.",
+        "",
+        *_reference_lines(summary, unit),
+        "",
+        f"![loop](loop.png)  \n*Force–displacement loop of the held-out record {summary['loop_record']}: "
+        "measured (grey) and model (red).*",
+        "",
+    ]
+    return atomic_write(path, "\n".join(lines))

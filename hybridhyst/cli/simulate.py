@@ -1,0 +1,144 @@
+"""``hybridhyst-simulate``: run a model config on an input and write its predictions and a summary.
+
+Inputs (``input.kind``): ``sine`` (x = A sin 2πft), ``free_vibration`` (an oscillator released from
+``input.initial_state`` with no drive) or ``data`` (the records of the ``data`` config).
+A ``study`` (set by an experiment config, e.g. ``experiment=seed001_free_vibration``) replaces the plain
+simulation by a named study whose result is the summary.
+"""
+
+from __future__ import annotations
+
+import time
+
+import hydra
+import numpy as np
+import pandas as pd
+import torch
+from omegaconf import DictConfig, OmegaConf
+
+from ..identify.gradient import decimate
+from ..simulate import simulate
+from .common import CONF_DIR, atomic_write, guarded, instantiate, prepare_run_dir, torch_settings, write_json
+
+__all__ = ["STUDIES", "main", "run"]
+
+
+def _plain(node):
+    return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+
+
+def _output_names(model) -> list[str]:
+    return list(getattr(model, "outputs", None) or ["force"])
+
+
+def _sine(inp) -> tuple[np.ndarray, np.ndarray]:
+    f, n = float(inp.frequency_hz), int(inp.samples_per_cycle)
+    if f <= 0 or n < 4 or int(inp.cycles) < 1:
+        raise ValueError(f"sine input needs frequency_hz > 0, samples_per_cycle >= 4 and cycles >= 1, got "
+                         f"{f}, {n}, {inp.cycles}")
+    t = np.arange(int(inp.cycles) * n + 1) / (f * n)
+    return t, float(inp.amplitude) * np.sin(2 * np.pi * f * t)
+
+
+def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
+    """Simulate a generated signal (sine or free vibration); one record named after the input kind."""
+    inp, kind = cfg.input, cfg.input.kind
+    initial = None
+    if kind == "sine":
+        t, u = _sine(inp)
+    else:
+        if model.base_state_dim == 0:
+            raise ValueError(f"free_vibration needs an oscillator model (structure: oscillator); "
+                             f"{cfg.model.get('name', 'this model')!r} is constitutive: use input.kind=sine")
+        n = int(round(float(inp.duration_s) / float(inp.dt))) + 1
+        t, u = np.arange(n) * float(inp.dt), np.zeros(n)
+        initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
+    solver = cfg.solver
+    with torch.no_grad():
+        y = simulate(model, u[None], t=t, conditions=_plain(cfg.conditions) or None, initial_state=initial,
+                     method=solver.method, substeps=int(solver.substeps))[0].cpu().numpy()
+    frame = pd.DataFrame({"record": kind, "t": t, "u": u})
+    for i, name in enumerate(_output_names(model)):
+        frame[name] = y[:, i]
+    return [frame], {kind: {"samples": len(t)}}
+
+
+def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
+    """Simulate the records of ``cfg.data`` (decimated by ``input.downsample``); RMSE against y."""
+    from ..analysis import rmse
+
+    records = instantiate(cfg.data, _convert_="all")
+    select = _plain(cfg.input.get("select")) or {}
+    records = [decimate(r, int(cfg.input.downsample)) for r in records.select(**select)]
+    if not records:
+        raise ValueError(f"input.select {select} leaves no records to simulate")
+    solver = cfg.solver
+    with torch.no_grad():
+        preds = simulate(model, records, method=solver.method, substeps=int(solver.substeps))
+    frames, info = [], {}
+    for r, p in zip(records, preds):
+        y = p.cpu().numpy()
+        frame = pd.DataFrame({"record": r.name, "t": r.t, "u": r.x, "y": r.y})
+        for i, name in enumerate(_output_names(model)):
+            frame[name] = y[:, i]
+        frames.append(frame)
+        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y)}
+    return frames, info
+
+
+def _seed001_free_vibration(cfg) -> dict:
+    """Seed 001 Table 2: free-vibration frequency of the two-mass rig per mixture and underpressure."""
+    from tqdm.auto import tqdm
+
+    from ..physics.compositions import MIXTURES, TABLE2_HZ, free_vibration_frequencies
+
+    opts = cfg.get("study_options") or {}
+    mixtures = list(opts.get("mixtures") or MIXTURES)
+    unknown = [m for m in mixtures if m not in MIXTURES]
+    if unknown:
+        raise ValueError(f"study_options.mixtures: unknown mixture(s) {unknown}; choose from {list(MIXTURES)}")
+    kwargs = {"pressures": _plain(opts.get("pressures")), "duration": float(opts.get("duration_s", 20.0)),
+              "dt": float(opts.get("dt", 1e-3))}
+    out = {}
+    for mixture in tqdm(mixtures, desc="mixtures", disable=not cfg.progress, leave=False):
+        p, f = free_vibration_frequencies(mixture, **kwargs)
+        out[mixture] = {"pressure_mpa": np.asarray(p).tolist(), "frequency_hz": np.asarray(f).tolist()}
+    return {"mixtures": out, "published_hz": {m: list(TABLE2_HZ[m]) for m in mixtures}}
+
+
+STUDIES = {"seed001_free_vibration": _seed001_free_vibration}
+
+
+def run(cfg: DictConfig) -> dict:
+    """Simulate (or run ``cfg.study``) and write ``summary.json`` (+ ``predictions.csv``) in the run dir."""
+    start = time.perf_counter()
+    run_dir = prepare_run_dir(cfg)
+    study = cfg.get("study")
+    with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
+        if study:
+            if study not in STUDIES:
+                raise ValueError(f"unknown study {study!r}; choose one of {sorted(STUDIES)}")
+            summary = {"study": study, **STUDIES[study](cfg)}
+        else:
+            kinds = {"sine": _signal_run, "free_vibration": _signal_run, "data": _data_run}
+            if cfg.input.kind not in kinds:
+                raise ValueError(f"unknown input.kind {cfg.input.kind!r}; choose one of {sorted(kinds)}")
+            model = instantiate(cfg.model, _convert_="all")
+            frames, records = kinds[cfg.input.kind](model, cfg)
+            table = pd.concat(frames, ignore_index=True)
+            atomic_write(run_dir / "predictions.csv", table.to_csv(index=False))
+            summary = {"model": cfg.model.get("name", ""), "input": cfg.input.kind,
+                       "outputs": _output_names(model), "records": records}
+    summary["wall_s"] = time.perf_counter() - start
+    write_json(run_dir / "summary.json", summary)
+    return summary
+
+
+@hydra.main(config_path=CONF_DIR, config_name="simulate", version_base="1.3")
+def main(cfg: DictConfig) -> None:
+    """Console entry point ``hybridhyst-simulate`` (Hydra overrides on the command line)."""
+    guarded(run, cfg)
+
+
+if __name__ == "__main__":
+    main()

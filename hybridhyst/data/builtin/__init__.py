@@ -1,0 +1,49 @@
+"""Datasets bundled with hybridhyst: ``load_builtin("brfd" | "boucwen" | "vpptd", **options)``.
+
+* ``brfd``: measured banded rotary friction damper, 35 records (CC BY-SA 4.0, see ``files/brfd``);
+* ``boucwen``: the Bouc–Wen system-identification benchmark, 3 records (MIT, see ``files/boucwen``);
+* ``vpptd``: synthetic vacuum-packed-particle torsional damper loops simulated from seed 001 Table 1.
+
+The data files live in ``files/`` inside the package; nothing is read from outside it.
+"""
+
+from __future__ import annotations
+
+import difflib
+import inspect
+
+from ..records import RecordSet
+from .boucwen import load_boucwen
+from .brfd import load_brfd
+from .vpptd import load_vpptd
+
+__all__ = ["BUILTINS", "load_builtin"]
+
+BUILTINS = {"brfd": load_brfd, "boucwen": load_boucwen, "vpptd": load_vpptd}
+
+
+def load_builtin(name: str, **options) -> RecordSet:
+    """Load a bundled dataset by name.
+
+    Parameters
+    ----------
+    name : "brfd", "boucwen" or "vpptd".
+    **options : passed to the dataset's loader (``load_brfd``, ``load_boucwen``, ``load_vpptd``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown dataset name or option (naming the closest one).
+    """
+    if name not in BUILTINS:
+        close = difflib.get_close_matches(str(name), BUILTINS, n=1)
+        hint = f"did you mean {close[0]!r}? " if close else ""
+        raise ValueError(f"unknown built-in dataset {name!r}; {hint}available: {sorted(BUILTINS)}")
+    loader = BUILTINS[name]
+    allowed = list(inspect.signature(loader).parameters)
+    for key in options:
+        if key not in allowed:
+            close = difflib.get_close_matches(key, allowed, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ValueError(f"built-in dataset {name!r} has no option {key!r}; {hint}options: {allowed}")
+    return loader(**options)

@@ -1,0 +1,105 @@
+"""Choosing records by operating condition: the matching rules behind ``RecordSet.select`` and ``.split``.
+
+A condition query is either
+
+* a mapping ``{condition: value or [values]}``: a record matches when, for every condition, its value
+  equals one of the listed values (numbers compare with a relative tolerance of 1e-9, so 0.1 + 0.2
+  matches 0.3); or
+* a callable ``query(record) -> bool``.
+
+Every listed value must match at least one record of the set: a held-out value that matches nothing is
+almost always a typo, and silently holding out nothing would make a test split meaningless.
+"""
+
+from __future__ import annotations
+
+import difflib
+import numbers
+from collections.abc import Callable, Mapping, Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["Split", "condition_mask"]
+
+Query = Mapping[str, object] | Callable[[object], bool]
+
+
+class Split(NamedTuple):
+    """Train / validation / test record sets (``train, val, test = records.split(...)``)."""
+
+    train: object
+    val: object
+    test: object
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, numbers.Number) and not isinstance(v, bool)
+
+
+def _equal(a, b) -> bool:
+    if _is_number(a) and _is_number(b):
+        return bool(np.isclose(float(a), float(b), rtol=1e-9, atol=0.0))
+    return a == b
+
+
+def _values(value) -> list:
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, set, frozenset, np.ndarray)):
+        return [value]
+    return [v.item() if isinstance(v, np.generic) else v for v in value]
+
+
+def _available(records, key: str) -> list:
+    found = []
+    for r in records:
+        if key in r.conditions and not any(_equal(r.conditions[key], f) for f in found):
+            found.append(r.conditions[key])
+    try:
+        return sorted(found)
+    except TypeError:
+        return found
+
+
+def condition_mask(records: Sequence, query: Query | None, what: str, set_name: str = "") -> np.ndarray:
+    """Boolean mask ``(len(records),)`` of the records matching ``query``.
+
+    Parameters
+    ----------
+    records : the records (objects with ``.name`` and ``.conditions``).
+    query : a ``{condition: value or [values]}`` mapping, a callable ``query(record) -> bool`` or
+        ``None`` (matches nothing).
+    what : how the query is described in messages ("held-out", "validation", "selected").
+    set_name : name of the record set, for messages.
+
+    Raises
+    ------
+    ValueError
+        If a condition name exists in no record (naming the closest one) or a listed value matches no
+        record (listing the available values).
+    """
+    n = len(records)
+    if query is None:
+        return np.zeros(n, dtype=bool)
+    if callable(query):
+        return np.array([bool(query(r)) for r in records], dtype=bool)
+    if not isinstance(query, Mapping):
+        raise TypeError(f"{what} conditions must be a mapping {{condition: values}} or a callable, got {query!r}")
+    mask = np.ones(n, dtype=bool)
+    names = sorted({k for r in records for k in r.conditions})
+    for key, value in query.items():
+        if key not in names:
+            close = difflib.get_close_matches(str(key), names, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ValueError(
+                f"{what} condition {key!r} is not a condition of record set {set_name!r}; {hint}conditions are: {names}"
+            )
+        hits = np.zeros(n, dtype=bool)
+        for v in _values(value):
+            hit = np.array([key in r.conditions and _equal(r.conditions[key], v) for r in records], dtype=bool)
+            if not hit.any():
+                raise ValueError(
+                    f"{what} condition {key}={v!r} matches no record; available values: {_available(records, key)}"
+                )
+            hits |= hit
+        mask &= hits
+    return mask

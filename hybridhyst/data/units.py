@@ -1,0 +1,67 @@
+"""Known unit strings and their validation (a misspelt unit is an error that names the closest one)."""
+
+from __future__ import annotations
+
+import difflib
+
+__all__ = ["KNOWN_UNITS", "check_units"]
+
+KNOWN_UNITS: frozenset[str] = frozenset(
+    {
+        # time and frequency
+        "s", "ms", "us", "min", "h", "Hz", "kHz",
+        # length and angle
+        "m", "cm", "mm", "um", "nm", "in", "ft", "deg", "rad", "rev",
+        # force and torque
+        "N", "kN", "MN", "kip", "lb", "lbf", "Nm", "N*m", "kNm", "kN*m", "Nmm", "N*mm", "lb*in", "kip*in",
+        # velocity and acceleration
+        "m/s", "mm/s", "um/s", "in/s", "ft/s", "deg/s", "rad/s", "rpm", "m/s^2", "mm/s^2", "in/s^2",
+        "deg/s^2", "rad/s^2", "g",
+        # electrical and magnetic
+        "V", "mV", "kV", "A", "mA", "Ohm", "W", "T", "mT",
+        # pressure and stress
+        "Pa", "kPa", "MPa", "GPa", "bar", "mbar", "psi", "ksi",
+        # other
+        "K", "degC", "J", "kJ", "%", "1", "-",
+    }
+)
+
+
+def check_units(units: dict[str, str] | None, where: str, channels: dict[str, str] | None = None) -> dict[str, str]:
+    """Validate a ``{channel: unit}`` mapping against ``KNOWN_UNITS``.
+
+    Parameters
+    ----------
+    units : mapping from channel name ("t", "x", "y" or an extra channel) to a unit string.
+    where : what is being read (e.g. ``"file 'loops.csv'"``), used in error messages.
+    channels : ``{channel: description}`` of the channels that exist; a unit for any other name is an
+        error. ``None`` accepts any channel name.
+
+    Returns
+    -------
+    A plain ``dict`` copy of ``units``.
+
+    Raises
+    ------
+    ValueError
+        For a unit not in ``KNOWN_UNITS`` (naming the closest known unit) or a unit given for a
+        channel that does not exist.
+    """
+    out = dict(units or {})
+    for channel, unit in out.items():
+        if channels is not None and channel not in channels:
+            known = ", ".join(f"{k!r} ({v})" for k, v in channels.items())
+            raise ValueError(f"{where}: unit given for unknown channel {channel!r}; units are keyed by channel: "
+                             f"{known}")
+        if not isinstance(unit, str) or unit not in KNOWN_UNITS:
+            raise ValueError(f"{where}: unknown unit {unit!r} for channel {channel!r}; {_suggest(unit)}")
+    return out
+
+
+def _suggest(unit) -> str:
+    text = str(unit)
+    by_lower = {u.lower(): u for u in KNOWN_UNITS}
+    close = [by_lower[text.lower()]] if text.lower() in by_lower else []
+    close = close or difflib.get_close_matches(text, sorted(KNOWN_UNITS), n=1, cutoff=0.3)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return hint + f"known units: {', '.join(sorted(KNOWN_UNITS, key=str.lower))}"

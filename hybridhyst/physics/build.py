@@ -1,0 +1,59 @@
+"""Build a nominal model from a plain config (a Hydra ``conf/model/*.yaml`` or a dict)."""
+
+from __future__ import annotations
+
+from .models import Constitutive, DrivenOscillator, NominalModel
+
+__all__ = ["build_effect", "build_model"]
+
+STRUCTURES = {"constitutive": Constitutive, "oscillator": DrivenOscillator}
+
+
+def _plain(cfg) -> dict:
+    try:  # OmegaConf containers → plain python
+        from omegaconf import DictConfig, OmegaConf
+
+        if isinstance(cfg, DictConfig):
+            return OmegaConf.to_container(cfg, resolve=True)
+    except ImportError:  # pragma: no cover
+        pass
+    return dict(cfg)
+
+
+def build_effect(key: str, cfg):
+    """One effect from ``{"effect": "<library name>", <param>: value | function config, ...}``."""
+    from .effects import EFFECTS
+
+    cfg = _plain(cfg)
+    name = cfg.pop("effect", None)
+    if name is None:
+        raise ValueError(f"effect {key!r} needs an 'effect:' entry naming one of {sorted(EFFECTS)}")
+    if name not in EFFECTS:
+        import difflib
+
+        close = difflib.get_close_matches(name, list(EFFECTS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"effect {key!r}: unknown effect {name!r}{hint}; the library has {sorted(EFFECTS)}")
+    return EFFECTS[name](**cfg)
+
+
+def build_model(structure: str = "constitutive", effects: dict | None = None, units: dict | None = None,
+                name: str = "model", **structure_options) -> NominalModel:
+    """Compose a nominal model.
+
+    Parameters
+    ----------
+    structure : "constitutive" (damper law, response = Σ forces along the prescribed excitation) or
+        "oscillator" (m ẍ + Σ forces = g u, or base excitation).
+    effects : ordered mapping ``key -> {"effect": name, **parameters}``; order matters for input operators.
+    units : {"x": ..., "F": ..., "u": ..., "t": ...} used to render parameter units.
+    structure_options : for "oscillator": mass, drive_gain, excitation, outputs, fixed.
+    """
+    if structure not in STRUCTURES:
+        raise ValueError(f"unknown structure {structure!r}; choose one of {sorted(STRUCTURES)}")
+    if not effects:
+        raise ValueError(f"model {name!r} has no effects; list at least one under 'effects:'")
+    built = {key: build_effect(key, cfg) for key, cfg in _plain(effects).items()}
+    if structure == "constitutive" and structure_options:
+        raise ValueError(f"a constitutive model takes no structure options, got {sorted(structure_options)}")
+    return STRUCTURES[structure](built, units=_plain(units) if units else None, name=name, **structure_options)

@@ -1,0 +1,135 @@
+"""The Hydra apps: ``run(cfg)`` on tiny settings, the files they write, and the exit-code-2 error path."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from hybridhyst.cli import fit, simulate
+from hybridhyst.cli.common import CONF_DIR, atomic_write, guarded, write_json
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# 1 Hz BRFD tests at 36 lb: train on 0.5 and 1.5 in, hold out 1 in; 16 samples per cycle, two Adam steps
+# and one L-BFGS iteration. The Dahl stiffness starts low so the coarse explicit grid stays stable.
+TINY_FIT = [
+    "+split.select.frequency_hz=1.0",
+    "fit.steps=2", "fit.lbfgs_steps=1", "fit.samples_per_cycle=16", "evaluate.samples_per_cycle=16",
+    "model.effects.dahl.sigma0=5.0", "model.effects.dahl.Fc=2.0", "progress=false",
+]
+
+
+def _compose(name: str, tmp_path: Path, overrides: list[str]):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(config_name=name, overrides=[f"run_dir={tmp_path}", *overrides])
+
+
+def _cli(module: str, tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    env.pop("HYBRIDHYST_TRACEBACK", None)
+    cmd = [sys.executable, "-m", module, f"hydra.run.dir={tmp_path}", "progress=false", *overrides]
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+
+
+def test_simulate_sine_writes_summary_and_predictions(tmp_path):
+    cfg = _compose("simulate", tmp_path, ["input.cycles=1", "input.samples_per_cycle=32", "progress=false"])
+    summary = simulate.run(cfg)
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    assert on_disk["records"]["sine"]["samples"] == 33 == summary["records"]["sine"]["samples"]
+    assert {"model", "input", "outputs", "records", "wall_s"} <= set(on_disk)
+    table = pd.read_csv(tmp_path / "predictions.csv")
+    assert list(table.columns) == ["record", "t", "u", *on_disk["outputs"]]
+    assert len(table) == 33 and table[on_disk["outputs"][0]].abs().max() > 0
+    assert (tmp_path / "config.yaml").exists()
+
+
+def test_simulate_on_bundled_records_reports_rmse(tmp_path):
+    cfg = _compose("simulate", tmp_path, [
+        "input.kind=data", "input.select={kind: characterisation, tension_lb: 36, frequency_hz: 2.0}",
+        "input.downsample=16", "model.effects.dahl.sigma0=5.0", "progress=false",
+    ])
+    summary = simulate.run(cfg)
+    (name, info), = summary["records"].items()
+    assert name == "char_2Hz_36lb_0.5in" and info["samples"] == 225
+    assert 0 < info["rmse"] < 10
+
+
+def test_simulate_free_vibration_needs_an_oscillator(tmp_path):
+    cfg = _compose("simulate", tmp_path, ["input.kind=free_vibration", "progress=false"])
+    with pytest.raises(ValueError, match="free_vibration needs an oscillator model"):
+        simulate.run(cfg)
+
+
+def test_simulate_seed001_study_summary_shape(tmp_path):
+    overrides = ["study=seed001_free_vibration", "study_options={mixtures: [NBR], pressures: [0.01, 0.09], "
+                 "duration_s: 8.0, dt: 0.01}", "progress=false"]
+    summary = simulate.run(_compose("simulate", tmp_path, overrides))
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    assert on_disk["mixtures"] == summary["mixtures"]
+    nbr = on_disk["mixtures"]["NBR"]
+    assert set(nbr) == {"pressure_mpa", "frequency_hz"}
+    assert nbr["pressure_mpa"] == [0.01, 0.09]
+    assert all(0.1 < f < 1.0 for f in nbr["frequency_hz"])
+
+
+def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path):
+    summary = fit.run(_compose("fit", tmp_path, TINY_FIT))
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    assert {"parameters", "rmse", "per_record", "wall_s", "split", "fit"} <= set(on_disk)
+    assert set(on_disk["rmse"]) == {"train", "held_out"}
+    assert on_disk["split"]["held_out"] == ["char_1Hz_36lb_1in"]
+    assert set(on_disk["per_record"]) == {"char_1Hz_36lb_0.5in", "char_1Hz_36lb_1.5in", "char_1Hz_36lb_1in"}
+    dahl = on_disk["parameters"]["dahl"]
+    assert dahl["sigma0"]["unit"] == "kip/in" and dahl["sigma0"]["value"] > 0
+    assert summary["fit"]["steps"]["adam"] == 2
+    assert summary["reference"] is None  # a different protocol than the reference numbers'
+    report = (tmp_path / "report.md").read_text()
+    assert "char_1Hz_36lb_1in" in report and "loop.png" in report
+    assert (tmp_path / "loop.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(pd.read_parquet(tmp_path / "predictions.parquet")) > 0
+
+
+def test_fit_rejects_a_held_out_value_no_record_has(tmp_path):
+    cfg = _compose("fit", tmp_path, ["split.held_out={amplitude_in: [0.75]}"])
+    with pytest.raises(ValueError, match="matches no record"):
+        fit.run(cfg)
+
+
+def test_cli_value_error_is_one_line_and_exit_code_2(tmp_path):
+    proc = _cli("hybridhyst.cli.fit", tmp_path, "data.name=brfdd")
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: unknown built-in dataset 'brfdd'; did you mean 'brfd'?"), proc.stderr
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_simulate_rejects_an_unknown_input_kind(tmp_path):
+    with pytest.raises(ValueError, match="unknown input.kind 'square'"):
+        simulate.run(_compose("simulate", tmp_path, ["input.kind=square"]))
+
+
+def test_guarded_turns_value_error_into_exit_2(capsys):
+    def boom(cfg):
+        raise ValueError("record 'a': column 'y'\nhas 3 NaN values")
+
+    with pytest.raises(SystemExit) as exc:
+        guarded(boom, OmegaConf.create({}))
+    assert exc.value.code == 2
+    assert capsys.readouterr().err == "error: record 'a': column 'y' has 3 NaN values\n"
+
+
+def test_atomic_writes_replace_whole_files(tmp_path):
+    path = write_json(tmp_path / "s.json", {"a": float("nan"), "b": [1.5]})
+    assert json.loads(path.read_text()) == {"a": None, "b": [1.5]}
+    atomic_write(path, "x")
+    assert path.read_text() == "x"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]  # no temp files left behind

@@ -1,0 +1,328 @@
+"""Data layer: readers, validation messages, condition splits, bundled datasets, data configs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.io
+
+from hybridhyst.data import Record, RecordSet, load_builtin, read, read_mat, read_npz, read_table
+
+REPO = Path(__file__).parents[1]
+SHARED = REPO.parent / "shared"
+MAP = {"time": "time", "input": "angle", "output": "torque", "record": "rec"}
+
+
+def _set(n_records: int = 3, n: int = 50) -> RecordSet:
+    records = []
+    for i in range(n_records):
+        t = np.arange(n) * 0.01
+        records.append(Record(
+            name=f"r{i}", t=t, x=np.sin(t + i), y=np.cos(t) * (i + 1), extra={"v": t * i},
+            conditions={"pressure_mpa": 0.01 * (i + 1), "mixture": "ABS" if i % 2 == 0 else "NBR"},
+            units={"x": "deg", "y": "Nm", "v": "deg/s"},
+        ))
+    return RecordSet(records, name="demo")
+
+
+def _table(path: Path, edit=None) -> Path:
+    """Two records 'a' (rows 0-5) and 'b' (rows 6-11) in one csv, optionally edited."""
+    frame = pd.DataFrame({
+        "rec": ["a"] * 6 + ["b"] * 6, "time": np.r_[np.arange(6.0), np.arange(6.0)],
+        "angle": np.arange(12.0), "torque": np.arange(12.0) * 2, "p": [0.01] * 6 + [0.02] * 6,
+    })
+    if edit is not None:
+        edit(frame)
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _same(a: RecordSet, b: RecordSet) -> None:
+    assert a.names == b.names
+    for ra, rb in zip(a, b, strict=True):
+        np.testing.assert_allclose(rb.t, ra.t, rtol=1e-12)
+        np.testing.assert_allclose(rb.x, ra.x, rtol=1e-12)
+        np.testing.assert_allclose(rb.y, ra.y, rtol=1e-12)
+        assert rb.conditions == pytest.approx(ra.conditions)
+
+
+# -- round trips --------------------------------------------------------------------------------------------
+def test_csv_with_record_column_round_trip(tmp_path):
+    records = _set()
+    records.to_frame().to_csv(tmp_path / "all.csv", index=False)
+    back = read_table(tmp_path / "all.csv", record="record", conditions=["pressure_mpa", "mixture"], extra=["v"],
+                      units={"x": "deg", "y": "Nm", "v": "deg/s"})
+    _same(records, back)
+    assert back[1].units == {"t": "s", "x": "deg", "y": "Nm", "v": "deg/s"}
+    np.testing.assert_allclose(back["r2"].extra["v"], records["r2"].extra["v"])
+
+
+def test_glob_of_files_one_record_each(tmp_path):
+    records = _set()
+    for r in records:
+        r_frame = RecordSet([r]).to_frame().drop(columns="record")
+        r_frame.to_csv(tmp_path / f"{r.name}.csv", index=False)
+    back = read_table(str(tmp_path / "r*.csv"), conditions=["pressure_mpa", "mixture"], name="demo")
+    _same(records, back)
+    assert back.conditions.loc["r1", "mixture"] == "NBR"
+
+
+def test_parquet_npz_mat_and_dispatch(tmp_path):
+    records = _set(1)
+    r = records[0]
+    records.to_frame().to_parquet(tmp_path / "r0.parquet")
+    _same(records, read(tmp_path / "r0.parquet", conditions=["pressure_mpa", "mixture"]))
+    np.savez(tmp_path / "r0.npz", t=r.t, x=r.x, y=r.y, pressure_mpa=0.01, mixture="ABS")
+    _same(records, read(tmp_path / "r0.npz", conditions=["pressure_mpa", "mixture"]))
+    scipy.io.savemat(tmp_path / "r0.mat", {"t": r.t[None, :], "x": r.x[:, None], "y": r.y,
+                                           "pressure_mpa": 0.01, "mixture": "ABS"})
+    _same(records, read_mat(tmp_path / "r0.mat", conditions=["pressure_mpa", "mixture"]))
+    with pytest.raises(ValueError, match=r"unknown extension '\.xlsx'"):
+        read(tmp_path / "r0.xlsx")
+
+
+def test_npz_record_placeholder_and_matrix_columns(tmp_path):
+    np.savez(tmp_path / "bw.npz", train_u=np.ones(8), train_y=np.zeros(8), test_u=np.ones(5), test_y=np.ones(5))
+    sets = read_npz(tmp_path / "bw.npz", time=None, fs=750.0, input="{record}_u", output="{record}_y")
+    assert sets.names == ["train", "test"] and len(sets["test"]) == 5
+    assert sets["train"].t[-1] == pytest.approx(7 / 750)
+    data = np.column_stack([np.arange(6.0), np.ones(6), np.arange(6.0) ** 2])
+    np.savez(tmp_path / "m.npz", data=data, p=0.05)
+    r = read_npz(tmp_path / "m.npz", time="data[0]", input="data[1]", output="data[2]", conditions=["p"])[0]
+    np.testing.assert_array_equal(r.y, data[:, 2])
+    assert r.conditions == {"p": 0.05}
+
+
+# -- bad input: every message names file, record, column and rows ---------------------------------------------
+def _nan(f):
+    f.loc[[8, 9], "torque"] = np.nan
+    f.loc[11, "torque"] = 1.0
+
+
+def _short(f):
+    f.loc[[10, 11], "torque"] = np.nan
+
+
+def _inf(f):
+    f.loc[3, "angle"] = np.inf
+
+
+def _text(f):
+    f["torque"] = f["torque"].astype(object)
+    f.loc[4, "torque"] = "abc"
+
+
+def _backwards(f):
+    f.loc[8, "time"] = 0.5
+
+
+def _duplicate(f):
+    f.loc[8, "time"] = 1.0
+
+
+def _varies(f):
+    f.loc[9, "p"] = 0.03
+
+
+BAD_TABLES = {
+    "nan": (_nan, {}, ["'b'", "'torque'", "2 NaN", "rows 8-9", "interpolate"]),
+    "mismatched length": (_short, {}, ["'b'", "'torque'", "rows 10-11", "mismatched lengths"]),
+    "inf": (_inf, {}, ["'a'", "'angle'", "rows 3", "NaN/inf"]),
+    "non-numeric": (_text, {}, ["'a'", "'torque'", "non-numeric", "rows 4", "'abc'"]),
+    "time not increasing": (_backwards, {}, ["'b'", "'time'", "not increasing", "rows 7", "sort"]),
+    "duplicate timestamps": (_duplicate, {}, ["'b'", "'time'", "duplicate timestamps", "rows 7"]),
+    "condition varies": (_varies, {"conditions": ["p"]}, ["'b'", "'p'", "varies", "row 9", "record column"]),
+    "too few samples": (None, {"min_samples": 7}, ["'a'", "6 sample(s)", "rows 0-5", "min_samples=7"]),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_TABLES))
+def test_bad_table_messages(tmp_path, case):
+    edit, options, expected = BAD_TABLES[case]
+    path = _table(tmp_path / "loops.csv", edit)
+    with pytest.raises(ValueError) as err:
+        read_table(path, **MAP, **options)
+    message = str(err.value)
+    for text in [f"file '{path}'", *expected]:
+        assert text in message, (text, message)
+
+
+def test_missing_column_suggests_closest(tmp_path):
+    path = _table(tmp_path / "loops.csv")
+    with pytest.raises(ValueError, match=r"no column 'torqe' \(the output\); did you mean 'torque'\?"):
+        read_table(path, **{**MAP, "output": "torqe"})
+    with pytest.raises(ValueError, match=r"no column 'P' \(the condition 'P'\); did you mean 'p'"):
+        read_table(path, **MAP, conditions=["P"])
+
+
+def test_file_level_errors(tmp_path):
+    (tmp_path / "empty.csv").write_text("")
+    with pytest.raises(ValueError, match=r"'.*empty\.csv' is empty"):
+        read_table(tmp_path / "empty.csv")
+    (tmp_path / "header.csv").write_text("t,x,y\n")
+    with pytest.raises(ValueError, match=r"header\.csv' has columns \['t', 'x', 'y'\] but no data rows"):
+        read_table(tmp_path / "header.csv")
+    with pytest.raises(FileNotFoundError, match="did you mean"):
+        read_table(tmp_path / "emptx.csv")
+    with pytest.raises(FileNotFoundError, match="no file matches"):
+        read_table(str(tmp_path / "nothing*.csv"))
+    path = _table(tmp_path / "loops.csv")
+    with pytest.raises(ValueError, match=r"'time' is not increasing .* record-id column with record="):
+        read_table(path, time="time", input="angle", output="torque")
+    with pytest.raises(ValueError, match="give time="):
+        read_table(path, time=None, input="angle", output="torque")
+
+
+def test_unknown_unit_names_closest(tmp_path):
+    path = _table(tmp_path / "loops.csv")
+    with pytest.raises(ValueError, match=r"unknown unit 'Nm2' for channel 'y'; did you mean 'Nm'\?"):
+        read_table(path, **MAP, units={"x": "deg", "y": "Nm2"})
+    with pytest.raises(ValueError, match=r"unknown unit 'DEG' for channel 'x'; did you mean 'deg'\?"):
+        read_table(path, **MAP, units={"x": "DEG"})
+    with pytest.raises(ValueError, match="unknown channel 'z'"):
+        read_table(path, **MAP, units={"z": "s"})
+
+
+def test_npz_and_mat_errors(tmp_path):
+    np.savez(tmp_path / "bad.npz", t=np.arange(4.0), x=np.ones(4), y=np.ones(3))
+    with pytest.raises(ValueError, match=r"bad\.npz'.*key 'y' \(the output\) has 3 samples but key 'x' has 4"):
+        read_npz(tmp_path / "bad.npz")
+    np.savez(tmp_path / "nan.npz", t=np.arange(4.0), x=np.r_[1.0, np.nan, 1, 1], y=np.ones(4))
+    with pytest.raises(ValueError, match=r"nan\.npz', record 'nan': key 'x' has 1 NaN values \(rows 1\)"):
+        read_npz(tmp_path / "nan.npz")
+    scipy.io.savemat(tmp_path / "m.mat", {"t": np.arange(4.0), "x": np.ones(4), "torque": np.ones(4)})
+    with pytest.raises(ValueError, match=r"no key 'torqe' \(the output\); did you mean 'torque'"):
+        read_mat(tmp_path / "m.mat", output="torqe")
+
+
+# -- selecting and splitting by condition ----------------------------------------------------------------------
+def test_select_by_conditions_and_callable():
+    records = _set(4)
+    assert records.select(mixture="ABS").names == ["r0", "r2"]
+    assert records.select(pressure_mpa=[0.02, 0.03]).names == ["r1", "r2"]
+    assert records.select(pressure_mpa=0.01 + 0.02).names == ["r2"]  # float tolerance
+    assert records.select(lambda r: r.conditions["pressure_mpa"] > 0.025).names == ["r2", "r3"]
+    with pytest.raises(ValueError, match=r"did you mean 'mixture'"):
+        records.select(mixtur="ABS")
+
+
+def test_split_by_held_out_condition():
+    records = _set(5)
+    train, val, test = records.split(held_out={"pressure_mpa": [0.03]}, val={"pressure_mpa": [0.05]})
+    assert (train.names, val.names, test.names) == (["r0", "r1", "r3"], ["r4"], ["r2"])
+    both = records.split(held_out={"mixture": ["NBR"], "pressure_mpa": [0.02, 0.03]})
+    assert both.test.names == ["r1"] and len(both.val) == 0
+
+
+def test_split_errors_name_the_condition():
+    records = _set(3)
+    with pytest.raises(ValueError) as err:
+        records.split(held_out={"pressure_mpa": [0.025]})
+    assert str(err.value) == (
+        "held-out condition pressure_mpa=0.025 matches no record; available values: [0.01, 0.02, 0.03]"
+    )
+    with pytest.raises(ValueError, match="leaves no training records"):
+        records.split(held_out={"mixture": ["ABS"]}, val={"mixture": ["NBR"]})
+
+
+def test_to_frame_is_long_table():
+    frame = _set(2, n=10).to_frame()
+    assert list(frame.columns) == ["record", "t", "x", "y", "v", "pressure_mpa", "mixture"]
+    assert len(frame) == 20 and frame.attrs["units"]["y"] == "Nm"
+
+
+# -- bundled data -------------------------------------------------------------------------------------------
+def test_brfd_records_and_conditions():
+    brfd = load_builtin("brfd")
+    cond = brfd.conditions
+    assert len(brfd) == 35 and (cond["kind"] == "characterisation").sum() == 31
+    assert cond.loc[cond["kind"] == "earthquake"].index.tolist() == [
+        "eq36lb_ImperialValleyDBE", "eq36lb_ImperialValleyMCE", "eq36lb_KocaeliDBE", "eq36lb_KocaeliMCE"]
+    assert set(cond.columns) == {"frequency_hz", "tension_lb", "amplitude_in", "kind", "earthquake",
+                                 "hazard_level", "tension_suspect"}
+    assert not cond.isna().any().any()
+    assert cond.loc["char_0.5Hz_36lb_1in", ["frequency_hz", "tension_lb", "amplitude_in"]].tolist() == [0.5, 36, 1]
+    assert cond.loc["char_2Hz_30lb_0.5in", ["frequency_hz", "tension_lb", "amplitude_in"]].tolist() == [2, 30, 0.5]
+    assert cond.loc["eq36lb_KocaeliMCE", "frequency_hz"] == 0.0
+    assert cond.loc["eq36lb_KocaeliMCE", "hazard_level"] == "MCE"
+    assert sorted(cond.index[cond["tension_suspect"]]) == [
+        "char_0.25Hz_0lb_0.5in", "char_0.25Hz_0lb_1in", "char_0.5Hz_0lb_0.5in", "char_1Hz_0lb_0.5in",
+        "char_2Hz_0lb_0.5in"]
+    r = brfd["char_1Hz_36lb_1in"]
+    assert len(r) == 7169 and r.units == {"t": "s", "x": "in", "y": "kip", "velocity": "in/s"}
+    assert r.dt == pytest.approx(1 / 1024) and abs(r.x).max() == pytest.approx(1.0, abs=0.05)
+    assert len(load_builtin("brfd", kind="earthquake")) == 4
+
+
+@pytest.mark.skipif(not (SHARED / "data").is_dir(), reason="shared data folder not present")
+def test_brfd_and_boucwen_equal_the_shared_files():
+    brfd = load_builtin("brfd")
+    with np.load(SHARED / "data" / "brfd" / "brfd_dataset2.npz") as src:
+        for r in brfd:
+            a = src[r.name]
+            np.testing.assert_array_equal(r.t, a[:, 0])
+            for got, col in ((r.x, 1), (r.y, 2), (r.extra["velocity"], 3)):
+                np.testing.assert_array_equal(got, a[:, col].astype(np.float32).astype(np.float64))
+    bw = load_builtin("boucwen")
+    with np.load(SHARED / "data" / "boucwen" / "boucwen_benchmark.npz") as src:
+        for name, key in (("train", "train"), ("multisine", "test_multisine"), ("sinesweep", "test_sinesweep")):
+            np.testing.assert_array_equal(bw[name].x, src[f"{key}_u"])
+            np.testing.assert_array_equal(bw[name].y, src[f"{key}_y"])
+
+
+def test_boucwen_shapes_and_split():
+    bw = load_builtin("boucwen")
+    assert {r.name: len(r) for r in bw} == {"train": 40960, "multisine": 8192, "sinesweep": 153000}
+    assert bw["multisine"].dt == pytest.approx(1 / 750) and bw["train"].units == {"t": "s", "x": "N", "y": "m"}
+    train, _, test = bw.split(held_out={"split": ["test"]})
+    assert train.names == ["train"] and test.names == ["multisine", "sinesweep"]
+
+
+def test_load_builtin_errors():
+    with pytest.raises(ValueError, match=r"unknown built-in dataset 'brdf'; did you mean 'brfd'"):
+        load_builtin("brdf")
+    with pytest.raises(ValueError, match=r"no option 'noise'; did you mean 'noise_sd'"):
+        load_builtin("vpptd", noise=0.1)
+
+
+def test_vpptd_generator_layout_and_noise():
+    clean = load_builtin("vpptd", mixtures=["1:3"], pressures=[0.01, 0.09], cycles=1, samples_per_cycle=60)
+    assert clean.names == ["1:3_p0.01", "1:3_p0.09"] and len(clean[0]) == 61
+    assert clean[1].conditions == {"mixture": "1:3", "pressure_mpa": 0.09, "frequency_hz": 0.79, "amplitude_deg": 10.0}
+    assert clean[0].units == {"t": "s", "x": "deg", "y": "Nm"} and clean[0].t[-1] == pytest.approx(1 / 0.79)
+    assert abs(clean[1].y).max() > abs(clean[0].y).max()
+    noisy = load_builtin("vpptd", mixtures="1:3", pressures=[0.01, 0.09], cycles=1, samples_per_cycle=60,
+                         noise_sd=0.5, seed=3)
+    one = load_builtin("vpptd", mixtures="1:3", pressures=[0.09], cycles=1, samples_per_cycle=60, noise_sd=0.5, seed=3)
+    np.testing.assert_array_equal(one[0].y, noisy[1].y)  # a record's noise does not depend on the others
+    assert np.std(noisy[1].y - clean[1].y) == pytest.approx(0.5, rel=0.3)
+    with pytest.raises(ValueError, match="unknown mixture"):
+        load_builtin("vpptd", mixtures=["2:1"])
+    with pytest.raises(ValueError, match="simulation diverged"):
+        load_builtin("vpptd", mixtures="NBR", pressures=[0.01], cycles=1, samples_per_cycle=60, substeps=1)
+
+
+def test_vpptd_peak_torque_of_seed_001():
+    """DESIGN.md: 1:3 loops at ±10°, 0.79 Hz peak at about 19 Nm (0.01 MPa) and 38 Nm (0.09 MPa)."""
+    loops = load_builtin("vpptd", mixtures=["1:3"], pressures=[0.01, 0.09], cycles=2, samples_per_cycle=300)
+    peaks = [abs(r.y[300:]).max() for r in loops]
+    assert peaks[0] == pytest.approx(19.0, rel=0.2) and peaks[1] == pytest.approx(38.0, rel=0.2)
+
+
+# -- configs ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("config", sorted(p.stem for p in (REPO / "conf" / "data").glob("*.yaml")))
+def test_data_configs_instantiate(config, tmp_path):
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.load(REPO / "conf" / "data" / f"{config}.yaml")
+    if config == "table":
+        path = _table(tmp_path / "loops.csv")
+        cfg = OmegaConf.merge(cfg, {"path": str(path), **MAP, "conditions": ["p"], "units": {"x": "deg"}})
+    if config == "vpptd":
+        cfg = OmegaConf.merge(cfg, {"mixtures": ["ABS"], "pressures": [0.05], "cycles": 1, "samples_per_cycle": 40})
+    records = instantiate(cfg)
+    assert isinstance(records, RecordSet) and len(records) >= 1

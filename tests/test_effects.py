@@ -1,0 +1,296 @@
+"""The effect library: closed-form responses, neutral values, gradients and validation of every effect."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from hybridhyst.physics.effects import (
+    EFFECTS,
+    AsymmetricCoulomb,
+    Attenuation,
+    Backlash,
+    Coulomb,
+    CubicStiffness,
+    Dahl,
+    Inertia,
+    LinearStiffness,
+    LuGre,
+    Stribeck,
+    TimeDelay,
+    Viscous,
+)
+from hybridhyst.physics.models import Constitutive, DrivenOscillator
+from hybridhyst.simulate import simulate
+
+NEW_EFFECTS = (AsymmetricCoulomb, CubicStiffness, Dahl, LuGre, Stribeck, Backlash, Inertia, Attenuation, TimeDelay)
+
+
+@pytest.fixture(autouse=True)
+def float64():
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(old)
+
+
+def ramps(velocities, duration: float, dt: float) -> dict:
+    """Constant-velocity ramps x = v t with their exact rate: inputs ``(batch, time, 2)`` and t."""
+    t = torch.arange(round(duration / dt) + 1) * dt
+    v = torch.as_tensor(velocities, dtype=torch.float64)[:, None].expand(-1, t.shape[0])
+    return {"inputs": torch.stack([v * t, v], dim=-1), "t": t}
+
+
+def sine(amplitude: float, freq: float, periods: float, dt: float) -> tuple[torch.Tensor, torch.Tensor]:
+    t = torch.arange(round(periods / freq / dt) + 1) * dt
+    return t, amplitude * torch.sin(2 * math.pi * freq * t)
+
+
+def respond(model, inputs=None, **kwargs) -> torch.Tensor:
+    """Output channel 0, detached: ``(batch, time)``."""
+    return simulate(model, inputs, **kwargs)[..., 0].detach()
+
+
+# -- registry and validation ------------------------------------------------------------------------------
+def test_every_new_effect_is_registered_with_documented_specs():
+    for cls in NEW_EFFECTS:
+        assert EFFECTS[cls.name] is cls
+        assert cls.equation and cls.source and cls.__doc__ and "Units" in cls.__doc__
+        for pname, spec in cls.specs.items():
+            assert spec.doc, f"{cls.name}.{pname} has no doc"
+            if spec.neutral == 0.0 and spec.constraint != "real":
+                assert spec.constraint == "nonnegative", f"{cls.name}.{pname}: neutral 0 needs 'nonnegative'"
+
+
+@pytest.mark.parametrize("cls", NEW_EFFECTS, ids=lambda c: c.name)
+def test_unknown_parameter_raises_with_its_name(cls):
+    with pytest.raises(ValueError, match="not_a_parameter"):
+        cls(not_a_parameter=1.0)
+
+
+def test_backlash_rejects_nonpositive_eps():
+    with pytest.raises(ValueError, match="eps"):
+        Backlash(eps=0.0)
+
+
+# -- memoryless forces ------------------------------------------------------------------------------------
+def test_asymmetric_coulomb_levels():
+    model = Constitutive([AsymmetricCoulomb(Fc=2.0, dF=0.5, v_s=1e-3)])
+    F = respond(model, **ramps([1.0, -1.0], 0.1, 0.01))
+    assert torch.allclose(F[0, 1:], torch.full_like(F[0, 1:], 2.5), atol=1e-12)  # Fc + dF
+    assert torch.allclose(F[1, 1:], torch.full_like(F[1, 1:], -1.5), atol=1e-12)  # -(Fc - dF)
+
+
+def test_cubic_stiffness_value():
+    x = torch.tensor([[0.0, 1.0, -2.0, 3.0]])
+    F = respond(Constitutive([CubicStiffness(k3=0.5)]), x, dt=0.1)
+    assert torch.allclose(F, torch.tensor([[0.0, 0.5, -4.0, 13.5]]), atol=1e-12)
+
+
+def test_attenuation_value_constitutive():
+    x = torch.tensor([[0.0, 1.0, -2.0, 3.0]])
+    F = respond(Constitutive([Attenuation(xi=0.3)]), x, dt=0.1)
+    assert torch.allclose(F, torch.tensor([[0.0, 0.3, -1.2, 2.7]]), atol=1e-12)  # xi |x| u with u = x
+
+
+def test_attenuation_equilibrium_matches_seed_003_drive():
+    """m x'' + c x' + k x = (Kp/i)(d33 - xi_p |x|) u: with drive_gain = 1, k = 1, xi = 0.5, u = 2 the
+    equilibrium solves x = 2 - x², i.e. x = 1 (a linear drive alone would give x = 2)."""
+    u = torch.full((1, 401), 2.0)
+    model = DrivenOscillator([LinearStiffness(k=1.0), Viscous(c=3.0), Attenuation(xi=0.5)], mass=1.0, drive_gain=1.0)
+    x = respond(model, u, dt=0.05)
+    assert abs(float(x[0, -1]) - 1.0) < 1e-6
+
+
+def test_stribeck_curve_values():
+    Fc, dFs, vs = 1.0, 0.5, 0.1
+    v = torch.tensor([0.05, 0.1, 0.2, -0.1])
+    model = Constitutive([Coulomb(Fc=Fc, v_s=1e-5), Stribeck(dFs=dFs, vs=vs, v_s=1e-5)])
+    F = respond(model, **ramps(v, 0.02, 0.01))[:, -1]
+    expected = torch.tensor([Fc + dFs * math.exp(-0.25), Fc + dFs / math.e, Fc + dFs * math.exp(-4.0),
+                             -(Fc + dFs / math.e)])
+    assert torch.allclose(F, expected, atol=1e-12)
+
+
+# -- state effects ----------------------------------------------------------------------------------------
+def test_dahl_ramp_closed_form_saturation_and_initial_slope():
+    sigma0, Fc = 50.0, 2.0
+    model = Constitutive([Dahl(sigma0=sigma0, Fc=Fc)])
+    for ramp in (ramps([0.1], 5.0, 0.01), ramps([1.0], 0.5, 0.001)):  # same path x: 0 -> 0.5, 10x faster
+        F = respond(model, **ramp)[0]
+        x = ramp["inputs"][0, :, 0]
+        assert torch.allclose(F, Fc * (1 - torch.exp(-sigma0 * x / Fc)), atol=1e-6)  # rate independent
+        assert abs(float(F[-1]) - Fc) < 1e-4  # saturates at Fc
+        slope = float((F[1] - F[0]) / (x[1] - x[0]))
+        assert slope == pytest.approx(sigma0, rel=0.02)  # sigma0 (1 - O(sigma0 dx / Fc))
+
+
+def test_lugre_steady_sliding_follows_stribeck_curve():
+    p = {"sigma0": 1e3, "sigma1": 30.0, "sigma2": 0.4, "Fc": 1.0, "Fs": 1.5, "vs": 0.1}
+    v = torch.tensor([0.03, 0.1, 0.3, -0.1])
+    F = respond(Constitutive([LuGre(**p)]), **ramps(v, 0.6, 2e-3))[:, -1]
+    g = p["Fc"] + (p["Fs"] - p["Fc"]) * torch.exp(-((v / p["vs"]) ** 2))
+    assert torch.allclose(F, g * v.sign() + p["sigma2"] * v, atol=1e-6)
+    assert float(F[1]) == pytest.approx(1.0 + 0.5 / math.e + 0.04, abs=1e-6)
+    static = Constitutive([Coulomb(Fc=1.0, v_s=1e-6), Stribeck(dFs=0.5, vs=0.1, v_s=1e-6), Viscous(c=0.4)])
+    assert torch.allclose(F, respond(static, **ramps(v, 0.02, 0.01))[:, -1], atol=1e-6)
+
+
+def test_lugre_without_stribeck_and_damping_is_dahl():
+    t, x = sine(0.02, 1.0, 1.5, 5e-3)
+    lugre = Constitutive([LuGre(sigma0=200.0, sigma1=0.0, sigma2=0.0, Fc=1.0, Fs=1.0, vs=0.1)])
+    dahl = Constitutive([Dahl(sigma0=200.0, Fc=1.0)])
+    F_lugre, F_dahl = respond(lugre, x[None], t=t), respond(dahl, x[None], t=t)
+    assert torch.allclose(F_lugre, F_dahl, atol=1e-12)
+    assert float(F_dahl.abs().max()) > 0.9  # saturated, so the test covers the nonlinear part
+
+
+# -- input operators and structure modifiers ----------------------------------------------------------------
+def backlash_loop(r: float, downstream, eps: float = 0.01):
+    """One period of x = sin(2 pi t) through a play of half-width r; |v| h <= 1.6 eps resolves eps."""
+    t, x = sine(1.0, 1.0, 1.0, 2.5e-3)
+    model = Constitutive([Backlash(r=r, eps=eps), *downstream])
+    return t, x, respond(model, x[None], t=t)[0]
+
+
+def test_backlash_with_zero_width_is_transparent():
+    t, x, F = backlash_loop(0.0, [Dahl(sigma0=5.0, Fc=1.0)])
+    F_ref = respond(Constitutive([Dahl(sigma0=5.0, Fc=1.0)]), x[None], t=t)[0]
+    assert torch.allclose(F, F_ref, atol=1e-12)
+
+
+def test_backlash_dead_band_width():
+    r, margin = 0.2, 0.05  # margin: 5 eps, where the smoothed play is within 1e-4 of the exact one
+    t, x, y = backlash_loop(r, [LinearStiffness(k=1.0)])
+    assert float(y.max()) == pytest.approx(1.0 - r, abs=1e-3)  # output peak = input peak - r
+    assert float(y.min()) == pytest.approx(-1.0 + r, abs=1e-3)
+    v = torch.gradient(x, spacing=(t,))[0]
+    sliding = (v.abs() > 5.5) & (t > 0.1)  # |x| < 0.48, past every dead band
+    assert torch.allclose((x - y)[sliding], r * v[sliding].sign(), atol=1e-3)  # gap = r while sliding
+    # after the reversal at t = 0.25 the output holds while x crosses 2r, then follows x + r
+    after = (t > 0.25) & (t < 0.5)
+    held = after & (x > 1.0 - 2 * r + margin)
+    assert float((y[held] - (1.0 - r)).abs().max()) < 1e-3
+    moving = after & (x < 1.0 - 2 * r - margin)
+    assert torch.allclose(y[moving], x[moving] + r, atol=1e-3)
+
+
+def test_backlash_coulomb_shows_dead_band_after_reversal():
+    r, margin = 0.2, 0.05
+    t, x, F = backlash_loop(r, [Coulomb(Fc=1.0, v_s=0.05)])
+    F_direct = respond(Constitutive([Coulomb(Fc=1.0, v_s=0.05)]), x[None], t=t)[0]
+    for t_rev, level, sgn in ((0.25, 1.0, -1.0), (0.75, -1.0, 1.0)):
+        window = (t > t_rev) & (t < t_rev + 0.25)
+        inside = window & ((x - level).abs() < 2 * r - margin) & ((x - level).abs() > margin)
+        outside = window & ((x - level).abs() > 2 * r + margin)
+        assert float(F[inside].abs().max()) < 0.01  # no friction in the dead band
+        assert torch.allclose(F[outside], torch.full_like(F[outside], sgn), atol=0.01)
+        assert torch.allclose(F_direct[inside], torch.full_like(F_direct[inside], sgn), atol=0.01)
+
+
+def test_inertia_constitutive_gives_mass_times_acceleration():
+    m, w = 2.0, 2 * math.pi
+    t, x = sine(1.0, 1.0, 1.0, 1e-3)
+    F = respond(Constitutive([Inertia(m=m)]), x[None], t=t)[0]
+    expected = -m * w**2 * torch.sin(w * t)
+    assert float((F - expected)[2:-2].abs().max()) < 1e-3 * m * w**2  # finite-difference accuracy
+
+
+def test_inertia_adds_to_oscillator_mass():
+    u = torch.randn(2, 301, generator=torch.Generator().manual_seed(0))
+    with_inertia = DrivenOscillator([Inertia(m=1.5), LinearStiffness(k=4.0), Viscous(c=0.3)], mass=0.5)
+    heavier = DrivenOscillator([LinearStiffness(k=4.0), Viscous(c=0.3)], mass=2.0)
+    assert torch.allclose(respond(with_inertia, u, dt=0.01), respond(heavier, u, dt=0.01), atol=1e-12)
+
+
+def test_time_delay_shifts_a_sine():
+    tau, w = 0.0537, 2 * math.pi
+    t, x = sine(1.0, 1.0, 1.0, 1e-3)
+    F = respond(Constitutive([TimeDelay(tau=tau), LinearStiffness(k=1.0)]), x[None], t=t)[0]
+    expected = torch.where(t >= tau, torch.sin(w * (t - tau)), torch.zeros_like(t))
+    assert float((F - expected).abs().max()) < 1e-5  # linear interpolation error (w dt)^2 / 8
+
+
+# -- neutral values and gradients ---------------------------------------------------------------------------
+def random_excitation(batch: int = 2, samples: int = 60, dt: float = 0.01):
+    g = torch.Generator().manual_seed(1)
+    t = torch.arange(samples) * dt
+    freqs = torch.tensor([1.0, 2.3, 4.1])
+    phases = 2 * math.pi * torch.rand(batch, 3, 1, generator=g)
+    amps = 0.3 * torch.rand(batch, 3, 1, generator=g) + 0.1
+    return t, (amps * torch.sin(2 * math.pi * freqs[:, None] * t + phases)).sum(1)
+
+
+ACTIVE = {
+    "asymmetric_coulomb": {"Fc": 1.0, "dF": 0.3, "v_s": 0.5},
+    "cubic_stiffness": {"k3": 2.0},
+    "dahl": {"sigma0": 25.0, "Fc": 0.5},
+    "lugre": {"sigma0": 25.0, "sigma1": 0.5, "sigma2": 0.2, "Fc": 0.5, "Fs": 0.8, "vs": 0.3},
+    "stribeck": {"dFs": 0.5, "vs": 0.3, "v_s": 0.2},
+    "backlash": {"r": 0.1, "eps": 0.05},  # |v| h / eps <= 1.9: eps resolved (see Backlash)
+    "inertia": {"m": 0.5},
+    "attenuation": {"xi": 0.7},
+    "time_delay": {"tau": 0.013},
+}
+
+
+def raw(effect, pname: str) -> torch.Tensor:
+    """The stored (unconstrained) leaf tensor of a constant parameter."""
+    (leaf,) = effect.params[pname].parameters()
+    return leaf
+
+
+def structures(effect):
+    """The effect under test first (so a backlash or delay reaches the springs), then springs and damping."""
+    def rest():
+        return [LinearStiffness(k=3.0), Viscous(c=0.5)]
+
+    return {"constitutive": Constitutive([effect, *rest()]),
+            "oscillator": DrivenOscillator([effect, *rest()], mass=1.0)}
+
+
+@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
+@pytest.mark.parametrize("cls", NEW_EFFECTS, ids=lambda c: c.name)
+def test_every_parameter_gets_the_right_gradient(cls, structure):
+    """Every parameter gets a finite non-zero gradient, and it matches a central difference along it."""
+    effect = cls(**ACTIVE[cls.name])
+    model = structures(effect)[structure]
+    t, u = random_excitation()
+    leaves = [raw(effect, n) for n in effect.params]
+
+    def loss():
+        return simulate(model, u, t=t, substeps=2).square().sum()
+
+    grads = torch.autograd.grad(loss(), leaves)
+    for name, grad in zip(effect.params, grads, strict=True):
+        assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{name}: gradient {grad}"
+    norm = torch.sqrt(sum(g**2 for g in grads))
+    step = 1e-5
+    with torch.no_grad():
+        ends = []
+        for sign in (1.0, -2.0, 1.0):  # +step, -step, back to the start
+            for leaf, g in zip(leaves, grads, strict=True):
+                leaf.add_(sign * step * g / norm)
+            ends.append(loss())
+    assert float((ends[0] - ends[1]) / (2 * step)) == pytest.approx(float(norm), rel=1e-6)
+
+
+NEUTRAL = (AsymmetricCoulomb, CubicStiffness, Stribeck, Backlash, Inertia, Attenuation, TimeDelay)
+
+
+@pytest.mark.parametrize("cls", NEUTRAL, ids=lambda c: c.name)
+def test_neutral_effect_changes_nothing_and_still_learns(cls):
+    """At its neutral values an added effect leaves the response unchanged, and its neutral parameters still
+    get a gradient (so discovery can grow the effect from there)."""
+    neutral = {n: s.neutral for n, s in cls.specs.items() if s.neutral is not None}
+    effect = cls(**neutral, **({"eps": 0.05} if cls is Backlash else {}))
+    t, u = random_excitation()
+    for name, model in structures(effect).items():
+        reference = structures(Viscous(c=0.0))[name]  # the same structure without the effect
+        y = simulate(model, u, t=t, substeps=2)
+        assert torch.allclose(y, simulate(reference, u, t=t, substeps=2), atol=1e-12), name
+        grads = torch.autograd.grad(y.square().sum(), [raw(effect, n) for n in neutral])
+        for pname, grad in zip(neutral, grads, strict=True):
+            assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{pname}: gradient {grad} at neutral ({name})"

@@ -1,0 +1,97 @@
+"""Gradient identification through ``simulate``: parameter recovery on synthetic records, decimation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from hybridhyst.data.records import Record
+from hybridhyst.identify.gradient import decimate, fit_gradient
+from hybridhyst.physics.effects import EFFECTS, Coulomb, Viscous
+from hybridhyst.physics.models import Constitutive
+from hybridhyst.simulate import simulate
+
+
+@pytest.fixture(autouse=True)
+def _float64():
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(old)
+
+
+def _sine_records(model, amplitudes=(0.5, 1.5), f=1.0, n=64, cycles=2):
+    t = np.arange(cycles * n + 1) / (f * n)
+    records = []
+    for a in amplitudes:
+        x = a * np.sin(2 * np.pi * f * t)
+        with torch.no_grad():
+            y = simulate(model, x[None], t=t)[0, :, 0].numpy()
+        records.append(Record(f"a{a}", t, x, y, conditions={"amplitude": a}))
+    return records
+
+
+def _dahl_model(c, fc_coulomb, fc_dahl, sigma0):
+    return Constitutive({
+        "viscous": Viscous(c=c),
+        "coulomb": Coulomb(Fc=fc_coulomb, v_s=0.05, fixed=["v_s"]),
+        "dahl": EFFECTS["dahl"](Fc=fc_dahl, sigma0=sigma0),
+    })
+
+
+def _values(model):
+    return {f"{k}.{p}": float(fn(None, 1)[0]) for k, e in model.effects.items() for p, fn in e.params.items()}
+
+
+def test_recovers_coulomb_viscous_levels():
+    truth = Constitutive({"viscous": Viscous(c=0.3), "coulomb": Coulomb(Fc=1.2, v_s=0.05, fixed=["v_s"])})
+    records = _sine_records(truth)
+    model = Constitutive({"viscous": Viscous(c=0.1), "coulomb": Coulomb(Fc=0.5, v_s=0.05, fixed=["v_s"])})
+    result = fit_gradient(model, records, steps=0, lbfgs_steps=10, progress=False)
+    got = _values(model)
+    assert got["viscous.c"] == pytest.approx(0.3, rel=1e-4)
+    assert got["coulomb.Fc"] == pytest.approx(1.2, rel=1e-4)
+    assert got["coulomb.v_s"] == 0.05  # fixed parameters stay where they are
+    assert result.loss < 1e-8 and result.steps == {"adam": 0, "lbfgs": result.steps["lbfgs"]}
+
+
+def test_recovers_dahl_friction_from_a_wrong_start():
+    truth = _dahl_model(0.05, 0.8, 2.0, 15.0)
+    records = _sine_records(truth)
+    model = _dahl_model(0.1, 0.4, 1.0, 8.0)
+    result = fit_gradient(model, records, steps=30, lr=0.05, lbfgs_steps=15, progress=False)
+    got = _values(model)
+    assert result.loss < 1e-6
+    assert got["dahl.sigma0"] == pytest.approx(15.0, rel=1e-2)
+    assert got["dahl.Fc"] + got["coulomb.Fc"] == pytest.approx(2.8, rel=1e-2)  # the sliding level
+
+
+def test_history_and_best_state():
+    truth = _dahl_model(0.05, 0.8, 2.0, 15.0)
+    records = _sine_records(truth, amplitudes=(1.0,))
+    model = _dahl_model(0.1, 0.4, 1.0, 8.0)
+    result = fit_gradient(model, records, steps=5, lr=0.05, progress=False)
+    assert len(result.history) == 5 and result.steps == {"adam": 5, "lbfgs": 0}
+    assert result.loss <= min(result.history) and result.n_samples == len(records[0])
+
+
+def test_decimation_per_record_and_validation():
+    truth = Constitutive({"viscous": Viscous(c=0.3)})
+    records = _sine_records(truth, n=64)
+    thin = decimate(records[0], 4)
+    assert len(thin) == 33 and thin.t[1] == records[0].t[4] and thin.conditions == records[0].conditions
+    result = fit_gradient(Constitutive({"viscous": Viscous(c=0.1)}), records, steps=1,
+                          downsample={"a0.5": 4, "a1.5": 8}, progress=False)
+    assert result.n_samples == 33 + 17
+    with pytest.raises(ValueError, match="decimation factor must be >= 1"):
+        decimate(records[0], 0)
+    with pytest.raises(ValueError, match="unknown loss"):
+        fit_gradient(truth, records, steps=1, loss="huber", progress=False)
+
+
+def test_diverging_simulation_is_a_clear_error():
+    records = _sine_records(Constitutive({"viscous": Viscous(c=0.3)}), n=8)
+    too_stiff = _dahl_model(0.1, 0.5, 1.0, 1e4)  # h·σ0|v|/Fc far beyond the RK4 stability limit
+    with pytest.raises(ValueError, match="simulation diverged"):
+        fit_gradient(too_stiff, records, steps=2, progress=False)

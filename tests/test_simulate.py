@@ -1,0 +1,172 @@
+"""Numerics of the one simulator: known solutions, convergence order, solver agreement, gradients."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from torch.nn.utils.stateless import _reparametrize_module
+
+from hybridhyst.physics import build_model
+from hybridhyst.physics.compositions import COMPOSITIONS
+from hybridhyst.physics.effects import LinearStiffness, Viscous
+from hybridhyst.physics.models import DrivenOscillator
+from hybridhyst.simulate import ORDER, simulate
+
+
+def _damped_oscillator(c=0.4, k=4.0, m=1.0):
+    return DrivenOscillator([Viscous(c=c), LinearStiffness(k=k)], mass=m)
+
+
+def _exact_free(t, c=0.4, k=4.0, m=1.0, x0=1.0):
+    zeta_w = c / (2 * m)
+    wd = math.sqrt(k / m - zeta_w**2)
+    return torch.exp(-zeta_w * t) * (x0 * torch.cos(wd * t) + x0 * zeta_w / wd * torch.sin(wd * t))
+
+
+def test_free_damped_oscillator_matches_closed_form(float64):
+    t = torch.linspace(0, 5, 501)
+    y = simulate(_damped_oscillator(), torch.zeros(1, 501), t=t, initial_state=[[1.0, 0.0]])
+    assert torch.allclose(y[0, :, 0], _exact_free(t), atol=1e-8)
+
+
+def test_forced_response_matches_steady_state_amplitude(float64):
+    # x'' + 0.4 x' + 4 x = sin(w t): steady-state amplitude 1 / sqrt((k - w²)² + (c w)²)
+    w, n = 1.3, 1601
+    t = torch.linspace(0, 80, n)
+    y = simulate(_damped_oscillator(), torch.sin(w * t)[None], t=t, substeps=2)[0, :, 0]
+    amp = y[t > 60].abs().max().item()
+    assert amp == pytest.approx(1 / math.sqrt((4 - w**2) ** 2 + (0.4 * w) ** 2), rel=1e-3)
+
+
+@pytest.mark.parametrize("method", sorted(ORDER))
+def test_convergence_order(method, float64):
+    """Error of each explicit scheme falls as h^order on a smooth problem."""
+    model = _damped_oscillator()
+    errors = []
+    for n in (41, 81, 161):
+        t = torch.linspace(0, 4, n)
+        y = simulate(model, torch.zeros(1, n), t=t, initial_state=[[1.0, 0.0]], method=method)
+        errors.append((y[0, -1, 0] - _exact_free(t[-1:])[0]).abs().item())
+    observed = [math.log2(errors[i] / errors[i + 1]) for i in range(2)]
+    assert observed[-1] == pytest.approx(ORDER[method], abs=0.3), observed
+
+
+def test_substeps_equal_a_finer_grid(float64):
+    model = _damped_oscillator()
+    t = torch.linspace(0, 4, 41)
+    coarse = simulate(model, torch.zeros(1, 41), t=t, initial_state=[[1.0, 0.0]], substeps=4)
+    fine_t = torch.linspace(0, 4, 161)
+    fine = simulate(model, torch.zeros(1, 161), t=fine_t, initial_state=[[1.0, 0.0]])
+    assert torch.allclose(coarse[0, :, 0], fine[0, ::4, 0], atol=1e-12)
+
+
+def test_torchdiffeq_agrees_with_fixed_step(float64):
+    model = COMPOSITIONS["boucwen_benchmark"]().double()
+    t = torch.arange(120) / 750.0
+    u = 50 * torch.sin(2 * math.pi * 20 * t)[None]
+    fixed = simulate(model, u, t=t, substeps=8)
+    adaptive = simulate(model, u, t=t, solver="torchdiffeq", rtol=1e-7, atol=1e-10)
+    assert torch.allclose(fixed, adaptive, atol=2e-4 * fixed.abs().max().item())
+
+
+def test_adjoint_gradient_matches_direct(float64):
+    model = _damped_oscillator().double()
+    t = torch.linspace(0, 2, 21)
+    u = torch.sin(3 * t)[None]
+    grads = []
+    for adjoint in (False, True):
+        model.zero_grad()
+        y = simulate(model, u, t=t, solver="torchdiffeq", adjoint=adjoint, rtol=1e-7, atol=1e-9)
+        (y**2).sum().backward()
+        grads.append(torch.cat([p.grad.flatten() for p in model.parameters()]))
+    assert torch.allclose(grads[0], grads[1], rtol=1e-4)
+
+
+# Per composition: a short input in its own units and conditions, on a grid fine enough to be stable.
+GRADCHECK_CASES = {
+    "vpptd_algebraic": dict(amp=10.0, freq=0.8, dt=2e-3, n=40, cond=None),
+    "modified_bouc_wen": dict(amp=10.0, freq=0.79, dt=2e-3, n=40, cond={"pressure_mpa": [0.03, 0.07]}),
+    "vpptd_rig": dict(amp=10.0, freq=0.3, dt=2e-3, n=40, cond={"pressure_mpa": [0.03, 0.07]}),
+    "bouc_wen_p": dict(amp=0.01, freq=0.5, dt=1e-3, n=40, cond={"pressure_mpa": [0.01, 0.04]}),
+    "bouc_wen_classic": dict(amp=1.0, freq=1.0, dt=2e-3, n=40, cond=None),
+    "piezo_attenuation": dict(amp=50.0, freq=10.0, dt=2e-5, n=40, cond=None),
+    "dahl_friction": dict(amp=1.0, freq=1.0, dt=2e-3, n=40, cond=None),
+    "lugre_friction": dict(amp=1.0, freq=1.0, dt=2e-3, n=40, cond=None),
+    "boucwen_benchmark": dict(amp=50.0, freq=20.0, dt=1 / 750, n=40, cond=None),
+}
+
+
+def test_every_composition_has_a_gradcheck_case():
+    assert set(GRADCHECK_CASES) == set(COMPOSITIONS)
+
+
+@pytest.mark.parametrize("name", sorted(GRADCHECK_CASES))
+def test_gradcheck_every_composition(name, float64):
+    """d(response)/d(every raw parameter) by autograd equals central differences (float64)."""
+    case = GRADCHECK_CASES[name]
+    model = COMPOSITIONS[name]().double()
+    names = [n for n, _ in model.named_parameters()]
+    params = tuple(p.detach().clone().requires_grad_() for _, p in model.named_parameters())
+    assert params, f"{name} has no trainable parameters"
+    cond = {k: torch.tensor(v) for k, v in case["cond"].items()} if case["cond"] else None
+    batch = 2 if cond else 1
+    t = torch.arange(case["n"]) * case["dt"]
+    u = (case["amp"] * torch.sin(2 * math.pi * case["freq"] * t + 0.3)).expand(batch, -1)
+
+    def response(*ps):
+        with _reparametrize_module(model, dict(zip(names, ps))):
+            return simulate(model, u, t=t, conditions=cond, initial_state=None)
+
+    assert torch.isfinite(response(*params)).all()
+    assert torch.autograd.gradcheck(response, params, eps=1e-6, atol=1e-5, rtol=1e-4, fast_mode=True)
+
+
+@pytest.mark.parametrize("path", sorted(__import__("pathlib").Path(__file__).parents[1].joinpath("conf/model").glob("*.yaml")))
+def test_every_model_config_instantiates_and_simulates(path, float64):
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    model = instantiate(OmegaConf.load(path)).double()
+    t = torch.arange(50) * 1e-3
+    cond = {"pressure_mpa": torch.tensor([0.05])}
+    y = simulate(model, 0.1 * torch.sin(2 * math.pi * t)[None], t=t, conditions=cond)
+    assert y.shape == (1, 50, model.output_dim) and torch.isfinite(y).all()
+    assert model.describe()  # every parameter has a value and a unit
+
+
+def test_records_input_returns_one_tensor_per_record(float64):
+    from hybridhyst.data.records import Record
+
+    model = build_model("constitutive", {"v": {"effect": "viscous", "c": 2.0}}).double()
+    t1, t2 = np.linspace(0, 1, 101), np.linspace(0, 2, 51)
+    recs = [Record("a", t1, np.sin(t1), np.zeros(101)), Record("b", t2, t2, np.zeros(51))]
+    out = simulate(model, recs)
+    assert [o.shape for o in out] == [(101, 1), (51, 1)]
+    assert torch.allclose(out[1][:, 0], torch.full((51,), 2.0), atol=1e-9)  # c · d(t)/dt
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(inputs=torch.zeros(1, 1), dt=0.1), "at least 2"),
+        (dict(inputs=torch.tensor([[0.0, float("nan"), 1.0]]), dt=0.1), "NaN"),
+        (dict(inputs=torch.zeros(1, 3), t=torch.tensor([0.0, 0.2, 0.1])), "strictly increasing"),
+        (dict(inputs=torch.zeros(1, 3)), "dt"),
+        (dict(inputs=torch.zeros(1, 3), dt=0.1, method="rk7"), "rk7"),
+        (dict(inputs=torch.zeros(1, 3), dt=0.1, solver="magic"), "magic"),
+    ],
+)
+def test_bad_simulation_input_is_a_clear_error(kwargs, message):
+    model = build_model("constitutive", {"v": {"effect": "viscous", "c": 2.0}})
+    with pytest.raises(ValueError, match=message):
+        simulate(model, **kwargs)
+
+
+def test_unknown_effect_and_condition_are_clear_errors():
+    with pytest.raises(ValueError, match="did you mean 'viscous'"):
+        build_model("constitutive", {"v": {"effect": "viscus"}})
+    model = build_model("constitutive", {"v": {"effect": "viscous",
+                                               "c": {"kind": "linear", "slope": 1.0, "intercept": 0.0}}})
+    with pytest.raises(ValueError, match="pressure_mpa"):
+        simulate(model, torch.zeros(1, 5), dt=0.1)
