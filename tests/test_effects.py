@@ -28,12 +28,7 @@ from hybridhyst.simulate import simulate
 NEW_EFFECTS = (AsymmetricCoulomb, CubicStiffness, Dahl, LuGre, Stribeck, Backlash, Inertia, Attenuation, TimeDelay)
 
 
-@pytest.fixture(autouse=True)
-def float64():
-    old = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(old)
+pytestmark = pytest.mark.usefixtures("float64")  # conftest: float64 default dtype, restored afterwards
 
 
 def ramps(velocities, duration: float, dt: float) -> dict:

@@ -46,7 +46,8 @@ class Positive(nn.Module):
         self.floor = float(floor)
 
     def forward(self, raw: torch.Tensor) -> torch.Tensor:
-        return nn.functional.softplus(raw) + self.floor
+        # log(1 + e^raw) without softplus's threshold switch (discontinuous by ~1e-9 at raw = 20)
+        return torch.logaddexp(raw, torch.zeros_like(raw)) + self.floor
 
     def right_inverse(self, value: torch.Tensor) -> torch.Tensor:
         y = torch.as_tensor(value) - self.floor
@@ -168,7 +169,7 @@ class Constant(ParameterFunction):
         return self.value.expand(batch)
 
     def describe(self) -> str:
-        return f"{float(self.value):.6g}"
+        return f"{float(self.value.detach()):.6g}"
 
 
 class Fixed(ParameterFunction):
@@ -182,7 +183,7 @@ class Fixed(ParameterFunction):
         return self.value.expand(batch)
 
     def describe(self) -> str:
-        return f"{float(self.value):.6g} (fixed)"
+        return f"{float(self.value.detach()):.6g} (fixed)"
 
 
 class Polynomial(ParameterFunction):
@@ -201,7 +202,7 @@ class Polynomial(ParameterFunction):
         return powers @ self.coeffs
 
     def describe(self) -> str:
-        terms = [f"{float(a):+.6g}·{self.condition}^{i}" for i, a in enumerate(self.coeffs)]
+        terms = [f"{float(a):+.6g}·{self.condition}^{i}" for i, a in enumerate(self.coeffs.detach())]
         return " ".join(terms)
 
 
@@ -224,9 +225,17 @@ class _Exponential(ParameterFunction):
     def _c(self, conditions, batch):
         return _condition_tensor(conditions, self.condition, self.y0).expand(batch)
 
+    _form = "{y0} + {a}·f({b}·{c})"
+
+    def describe(self) -> str:
+        v = {k: f"{float(getattr(self, k).detach()):.6g}" for k in ("y0", "a", "b")}
+        return self._form.format(c=self.condition, **v)
+
 
 class ExpRise(_Exponential):
     """Exponential rise to maximum (seed 002 eq. 9): y = y0 + a (1 − exp(−b c))."""
+
+    _form = "{y0} + {a}·(1 − exp(−{b}·{c}))"
 
     def forward(self, conditions, batch):
         return self.y0 + self.a * (1 - torch.exp(-self.b * self._c(conditions, batch)))
@@ -235,12 +244,16 @@ class ExpRise(_Exponential):
 class ExpDecay(_Exponential):
     """Exponential decay (seed 002 eq. 7): y = y0 + a exp(−b c)."""
 
+    _form = "{y0} + {a}·exp(−{b}·{c})"
+
     def forward(self, conditions, batch):
         return self.y0 + self.a * torch.exp(-self.b * self._c(conditions, batch))
 
 
 class ExpGrowth(_Exponential):
     """Exponential growth (seed 002 eq. 8): y = y0 + a exp(b c)."""
+
+    _form = "{y0} + {a}·exp({b}·{c})"
 
     def forward(self, conditions, batch):
         return self.y0 + self.a * torch.exp(self.b * self._c(conditions, batch))
@@ -271,6 +284,10 @@ class PerCondition(ParameterFunction):
                 f"known levels are {self.levels.tolist()}"
             )
         return self.values[match.to(torch.long).argmax(dim=1)]
+
+    def describe(self) -> str:
+        pairs = zip(self.levels.tolist(), self.values.detach().tolist())
+        return ", ".join(f"{self.condition}={lv:g}: {v:.6g}" for lv, v in pairs)
 
 
 class NeuralFunction(ParameterFunction):

@@ -37,7 +37,11 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Ten
 def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
     """The input read ``tau (batch,)`` earlier: U(t − τ), held at its first value before t0."""
     tq = t[None, :] - tau[:, None]
-    return interpolate(U, t, tq)
+    out = interpolate(U, t, tq)
+    # before t0 the input is held at rest: its value persists, its rates are zero
+    before = (tq < t[0])[..., None]
+    rates_mask = torch.tensor([False, True, True], device=U.device)
+    return torch.where(before & rates_mask, torch.zeros_like(out), out)
 
 
 def sample(U: torch.Tensor, k: int) -> InputSample:
