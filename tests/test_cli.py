@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TINY_FIT = [
     "+split.select.frequency_hz=1.0",
     "fit.steps=2", "fit.lbfgs_steps=1", "fit.samples_per_cycle=16", "evaluate.samples_per_cycle=16",
-    "model.effects.dahl.sigma0=5.0", "model.effects.dahl.Fc=2.0", "progress=false",
+    "model.sigma0=5.0", "model.Fc=2.0", "progress=false",
 ]
 
 
@@ -36,7 +36,7 @@ def _cli(module: str, tmp_path: Path, *overrides: str) -> subprocess.CompletedPr
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     env.pop("HYBRIDHYST_TRACEBACK", None)
     cmd = [sys.executable, "-m", module, f"hydra.run.dir={tmp_path}", "progress=false", *overrides]
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+    return subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
 
 
 def test_simulate_sine_writes_summary_and_predictions(tmp_path):
@@ -54,7 +54,7 @@ def test_simulate_sine_writes_summary_and_predictions(tmp_path):
 def test_simulate_on_bundled_records_reports_rmse(tmp_path):
     cfg = _compose("simulate", tmp_path, [
         "input.kind=data", "input.select={kind: characterisation, tension_lb: 36, frequency_hz: 2.0}",
-        "input.downsample=16", "model.effects.dahl.sigma0=5.0", "progress=false",
+        "input.downsample=16", "model.sigma0=5.0", "progress=false",
     ])
     summary = simulate.run(cfg)
     (name, info), = summary["records"].items()
@@ -69,8 +69,8 @@ def test_simulate_free_vibration_needs_an_oscillator(tmp_path):
 
 
 def test_simulate_seed001_study_summary_shape(tmp_path):
-    overrides = ["study=seed001_free_vibration", "study_options={mixtures: [NBR], pressures: [0.01, 0.09], "
-                 "duration_s: 8.0, dt: 0.01}", "progress=false"]
+    overrides = ["study=seed001_free_vibration", ("study_options={mixtures: [NBR], pressures: [0.01, 0.09], "
+                 "duration_s: 8.0, dt: 0.01}"), "progress=false"]
     summary = simulate.run(_compose("simulate", tmp_path, overrides))
     on_disk = json.loads((tmp_path / "summary.json").read_text())
     assert on_disk["mixtures"] == summary["mixtures"]
@@ -78,6 +78,13 @@ def test_simulate_seed001_study_summary_shape(tmp_path):
     assert set(nbr) == {"pressure_mpa", "frequency_hz"}
     assert nbr["pressure_mpa"] == [0.01, 0.09]
     assert all(0.1 < f < 1.0 for f in nbr["frequency_hz"])
+
+
+@pytest.mark.skipif(not (Path(CONF_DIR) / "experiment" / "seed001_free_vibration.yaml").exists(),
+                    reason="conf/experiment/seed001_free_vibration.yaml not written yet")
+def test_seed001_experiment_selects_the_study(tmp_path):
+    cfg = _compose("simulate", tmp_path, ["experiment=seed001_free_vibration"])
+    assert cfg.study in simulate.STUDIES
 
 
 def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path):

@@ -41,7 +41,7 @@ def _dahl_model(c, fc_coulomb, fc_dahl, sigma0):
 
 
 def _values(model):
-    return {f"{k}.{p}": float(fn(None, 1)[0]) for k, e in model.effects.items() for p, fn in e.params.items()}
+    return {f"{k}.{p}": float(fn(None, 1)[0].detach()) for k, e in model.effects.items() for p, fn in e.params.items()}
 
 
 def test_recovers_coulomb_viscous_levels():

@@ -1,6 +1,7 @@
 """Numerics of the one simulator: known solutions, convergence order, solver agreement, gradients."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -122,7 +123,10 @@ def test_gradcheck_every_composition(name, float64):
     assert torch.autograd.gradcheck(response, params, eps=1e-6, atol=1e-5, rtol=1e-4, fast_mode=True)
 
 
-@pytest.mark.parametrize("path", sorted(__import__("pathlib").Path(__file__).parents[1].joinpath("conf/model").glob("*.yaml")))
+MODEL_CONFIGS = sorted((Path(__file__).parents[1] / "conf" / "model").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", MODEL_CONFIGS, ids=[p.stem for p in MODEL_CONFIGS])
 def test_every_model_config_instantiates_and_simulates(path, float64):
     from hydra.utils import instantiate
     from omegaconf import OmegaConf

@@ -131,12 +131,12 @@ def parameter_table(model) -> dict[str, dict[str, dict]]:
     described = model.describe()
     for key, params in described.items():
         if key in getattr(model, "effects", {}):
-            fns = model.effects[key].params
+            fns = dict(model.effects[key].params.items())
         else:
-            fns = getattr(model, "structure_params", {})
+            fns = dict(getattr(model, "structure_params", {}).items())
         out[key] = {}
         for pname, info in params.items():
-            fn = fns[pname] if pname in fns else None
+            fn = fns.get(pname)
             if isinstance(fn, (Constant, Fixed)):
                 value = float(fn(None, 1)[0].detach())
             else:

@@ -64,7 +64,7 @@ def decimation_factors(records, samples_per_cycle: int | None, downsample: int,
     for r in records:
         f = r.conditions.get(frequency)
         if samples_per_cycle and isinstance(f, numbers.Number) and f > 0:
-            out[r.name] = max(1, int(round(1.0 / (r.dt * f * samples_per_cycle))))
+            out[r.name] = max(1, round(1.0 / (r.dt * f * samples_per_cycle)))
         else:
             out[r.name] = max(1, int(downsample))
     return out
@@ -120,6 +120,36 @@ def _reference(cfg) -> dict | None:
     return {"source": ref.source, "held_out_rmse": _container(ref.held_out_rmse)}
 
 
+def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:
+    """RMSE on the evaluation grid for both parts: (scores, prediction frames, decimation factors)."""
+    ev = cfg.evaluate
+    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps})
+    scores, frames, factors = {}, {}, {}
+    for part, records in (("train", train), ("held_out", held_out)):
+        f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.split.frequency_condition)
+        scores[part], part_frames, _ = _evaluate(model, list(records), f, solver)
+        frames.update({k: v.assign(split=part) for k, v in part_frames.items()})
+        factors.update(f)
+    return scores, frames, factors
+
+
+def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:
+    fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
+                "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s}
+    return {
+        "parameters": parameter_table(model),
+        "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
+        "per_record": {**scores["train"]["per_record"], **scores["held_out"]["per_record"]},
+        "split": {"train": train.names, "held_out": held_out.names},
+        "conditions": _conditions_table([*train, *held_out], list(cfg.report.condition_columns)),
+        "units": {"x": train[0].units.get("x", ""), "y": train[0].units.get("y", "")},
+        "fit": fit_info,
+        "evaluate": {"samples_per_cycle": cfg.evaluate.samples_per_cycle, "decimation": eval_factors},
+        "model": cfg.model.get("name") or model.name,
+        "reference": _reference(cfg),
+    }
+
+
 def run(cfg: DictConfig) -> dict:
     """Fit, evaluate, and write the run directory; returns the summary dict (also ``summary.json``)."""
     start = time.perf_counter()
@@ -130,27 +160,8 @@ def run(cfg: DictConfig) -> dict:
             raise ValueError("no held-out records: set split.held_out to the conditions to score on")
         model = instantiate(cfg.model, _convert_="all")
         result, fit_factors = _fit(model, train, cfg)
-        ev = cfg.evaluate
-        solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps})
-        frequency = cfg.split.frequency_condition
-        scores, frames = {}, {}
-        for part, records in (("train", train), ("held_out", held_out)):
-            factors = decimation_factors(records, ev.samples_per_cycle, ev.downsample, frequency)
-            scores[part], f, _ = _evaluate(model, list(records), factors, solver)
-            frames.update({k: v.assign(split=part) for k, v in f.items()})
-    keys = list(cfg.report.condition_columns)
-    summary = {
-        "parameters": parameter_table(model),
-        "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
-        "per_record": {**scores["train"]["per_record"], **scores["held_out"]["per_record"]},
-        "split": {"train": train.names, "held_out": held_out.names},
-        "conditions": _conditions_table([*train, *held_out], keys),
-        "units": {"x": train[0].units.get("x", ""), "y": train[0].units.get("y", "")},
-        "fit": {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps,
-                "samples": result.n_samples, "decimation": fit_factors, "wall_s": result.wall_s},
-        "model": cfg.model.get("name", ""),
-        "reference": _reference(cfg),
-    }
+        scores, frames, eval_factors = _score(model, train, held_out, cfg)
+    summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
     loop_name = cfg.report.get("loop_record") or held_out.names[0]
     if loop_name not in frames:
         raise ValueError(f"report.loop_record {loop_name!r} is not one of the records {sorted(frames)}")

@@ -45,6 +45,13 @@ def _fmt(value) -> str:
     return "" if value is None else str(value)
 
 
+def _grid(evaluate: dict) -> str:
+    factors = sorted(set(evaluate["decimation"].values()))
+    every = "every sample" if factors == [1] else f"every {'/'.join(map(str, factors))}-th measured sample"
+    per_cycle = evaluate.get("samples_per_cycle")
+    return f"about {per_cycle} samples per loading cycle ({every})" if per_cycle else every
+
+
 def _parameter_lines(parameters: dict) -> list[str]:
     lines = ["| effect | parameter | value | unit |", "|---|---|---|---|"]
     for effect, params in parameters.items():
@@ -87,8 +94,9 @@ def write_report(path: Path, summary: dict) -> Path:
         f"Training records ({len(summary['split']['train'])}): {', '.join(summary['split']['train'])}.  ",
         f"Held-out records ({len(summary['split']['held_out'])}): {', '.join(summary['split']['held_out'])}.",
         "",
-        f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}) on {fit['samples']} "
-        f"decimated samples in {fit['wall_s']:.1f} s; whole run {summary['wall_s']:.1f} s.",
+        (f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
+         f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; "
+         f"whole run {summary['wall_s']:.1f} s."),
         "",
         "## Fitted parameters",
         "",
@@ -98,13 +106,13 @@ def write_report(path: Path, summary: dict) -> Path:
         "",
         *_record_lines(summary, summary["split"]["held_out"], unit),
         "",
-        f"Pooled RMSE over all samples: train {summary['rmse']['train']:.3f} {unit}, "
-        f"held out {summary['rmse']['held_out']:.3f} {unit}.",
+        (f"Pooled RMSE (records weighted by their full-rate length): train {summary['rmse']['train']:.3f} "
+         f"{unit}, held out {summary['rmse']['held_out']:.3f} {unit}, scored on {_grid(summary['evaluate'])}."),
         "",
         *_reference_lines(summary, unit),
         "",
-        f"![loop](loop.png)  \n*Force–displacement loop of the held-out record {summary['loop_record']}: "
-        "measured (grey) and model (red).*",
+        (f"![loop](loop.png)  \n*Force–displacement loop of the held-out record {summary['loop_record']}: "
+         "measured (grey) and model (red).*"),
         "",
     ]
     return atomic_write(path, "\n".join(lines))

@@ -50,7 +50,7 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         if model.base_state_dim == 0:
             raise ValueError(f"free_vibration needs an oscillator model (structure: oscillator); "
                              f"{cfg.model.get('name', 'this model')!r} is constitutive: use input.kind=sine")
-        n = int(round(float(inp.duration_s) / float(inp.dt))) + 1
+        n = round(float(inp.duration_s) / float(inp.dt)) + 1
         t, u = np.arange(n) * float(inp.dt), np.zeros(n)
         initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
     solver = cfg.solver
@@ -60,7 +60,12 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     frame = pd.DataFrame({"record": kind, "t": t, "u": u})
     for i, name in enumerate(_output_names(model)):
         frame[name] = y[:, i]
-    return [frame], {kind: {"samples": len(t)}}
+    info = {"samples": len(t)}
+    if kind == "free_vibration" and "x" in frame:
+        from ..analysis import free_vibration_frequency
+
+        info["frequency_hz"] = free_vibration_frequency(frame["x"].to_numpy(), float(inp.dt))
+    return [frame], {kind: info}
 
 
 def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
@@ -127,7 +132,7 @@ def run(cfg: DictConfig) -> dict:
             frames, records = kinds[cfg.input.kind](model, cfg)
             table = pd.concat(frames, ignore_index=True)
             atomic_write(run_dir / "predictions.csv", table.to_csv(index=False))
-            summary = {"model": cfg.model.get("name", ""), "input": cfg.input.kind,
+            summary = {"model": cfg.model.get("name") or model.name, "input": cfg.input.kind,
                        "outputs": _output_names(model), "records": records}
     summary["wall_s"] = time.perf_counter() - start
     write_json(run_dir / "summary.json", summary)

@@ -39,6 +39,7 @@ class FitResult:
     history : loss evaluated at every optimiser step (before its update), Adam first, then L-BFGS.
     steps : number of Adam steps and L-BFGS iterations taken, ``{"adam": n, "lbfgs": m}``.
     n_samples : number of (decimated) samples the loss was computed on.
+    evaluations : number of simulations run (each one forward, most with a backward pass).
     wall_s : wall-clock time of the fit [s].
     """
 
@@ -47,6 +48,7 @@ class FitResult:
     history: list[float] = field(default_factory=list)
     steps: dict[str, int] = field(default_factory=dict)
     n_samples: int = 0
+    evaluations: int = 0
     wall_s: float = 0.0
 
 
@@ -128,14 +130,21 @@ def _project(model: nn.Module) -> None:
 
 
 class _Objective:
-    """Loss of the model on the records, keeping the best parameters seen."""
+    """Loss of the model on the records, keeping the best parameters seen.
+
+    Parameters are projected into their bounds before every evaluation, so the L-BFGS line search
+    scores (and the best state keeps) only feasible points.
+    """
 
     def __init__(self, model, records, loss, sim_kwargs):
         self.model, self.records, self.loss, self.sim_kwargs = model, records, loss, sim_kwargs
         self.best = math.inf
+        self.evaluations = 0
         self.best_state = copy.deepcopy(model.state_dict())
 
     def __call__(self) -> torch.Tensor:
+        _project(self.model)
+        self.evaluations += 1
         preds = simulate(self.model, self.records, **self.sim_kwargs)
         value = record_loss(preds, self.records, self.loss)
         v = float(value.detach())
@@ -186,7 +195,7 @@ def _run_adam(obj: _Objective, steps: int, lr: float, progress: bool, history: l
 def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]) -> int:
     params = [p for p in obj.model.parameters() if p.requires_grad]
     # max_iter=1 per call (one progress tick per iteration); max_eval leaves room for the line search
-    opt = torch.optim.LBFGS(params, lr=1.0, max_iter=1, max_eval=21, history_size=20, line_search_fn="strong_wolfe")
+    opt = torch.optim.LBFGS(params, lr=1.0, max_iter=1, max_eval=11, history_size=20, line_search_fn="strong_wolfe")
 
     def closure():
         opt.zero_grad()
@@ -248,7 +257,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
     data = _decimate_all(records, downsample)
-    sim_kwargs = dict(method=method, substeps=substeps, input_channels=tuple(input_channels))
+    sim_kwargs = {"method": method, "substeps": substeps, "input_channels": tuple(input_channels)}
     obj = _Objective(model, data, loss, sim_kwargs)
     history: list[float] = []
     n_adam = _run_adam(obj, steps, lr, progress, history) if steps else 0
@@ -257,4 +266,5 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         obj()  # score the final parameters too, so the best state covers the last step
     obj.restore()
     return FitResult(model=model, loss=obj.best, history=history, steps={"adam": n_adam, "lbfgs": n_lbfgs},
-                     n_samples=sum(len(r) for r in data), wall_s=time.perf_counter() - start)
+                     n_samples=sum(len(r) for r in data), evaluations=obj.evaluations,
+                     wall_s=time.perf_counter() - start)

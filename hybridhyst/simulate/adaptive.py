@@ -5,8 +5,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .inputs import interpolate
 from ..physics.models import InputSample
+from .inputs import interpolate
 
 
 class _Vectorfield(nn.Module):

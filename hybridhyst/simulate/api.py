@@ -35,7 +35,9 @@ def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Ten
         if v.ndim == 0:
             v = v.expand(batch)
         if v.shape != (batch,):
-            raise ValueError(f"condition {key!r} has shape {tuple(v.shape)}; give a scalar or one value per batch row ({batch})")
+            raise ValueError(
+                f"condition {key!r} has shape {tuple(v.shape)}; give a scalar or one value per batch row ({batch})"
+            )
         out[key] = v
     return out
 

@@ -41,9 +41,9 @@ def integrate_fixed(model, U, t, P, state0, method: str = "rk4", substeps: int =
             ks = []
             for j in range(len(c)):
                 y = state
-                for l, alj in enumerate(a[j]):
-                    if alj:
-                        y = y + (h * alj) * ks[l]
+                for i, aji in enumerate(a[j]):
+                    if aji:
+                        y = y + (h * aji) * ks[i]
                 ks.append(model.derivative(y, lerp_sample(Uk, Uk1, (s + c[j]) / S), P))
             incr = sum((bj * kj for bj, kj in zip(b, ks) if bj), torch.zeros_like(state))
             state = state + h * incr

@@ -3,7 +3,7 @@
 | name | structure | source |
 |---|---|---|
 | ``vpptd_algebraic`` | Constitutive: c φ̇ + k φ + k₂ φ³ + M_s sgn φ̇ (φ̇ in rad/s) | seed 000 |
-| ``modified_bouc_wen`` | Constitutive: viscous + Bouc–Wen with cubic term + Coulomb, Table 1 functions of p | seed 001 |
+| ``modified_bouc_wen`` | Constitutive: viscous + Bouc–Wen (cubic term) + Coulomb, Table 1 functions of p | seed 001 |
 | ``vpptd_rig`` | DrivenOscillator, base excitation, I = 0.51: the two-mass rig of Fig. 4 | seed 001 |
 | ``bouc_wen_p`` | Constitutive with unit inertia, exponential functions of p | seed 002 |
 | ``bouc_wen_classic`` | Constitutive: m ẍ + c ẋ + a k x + (1 − a) k z | seed 004 |

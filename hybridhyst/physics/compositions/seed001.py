@@ -66,7 +66,8 @@ def _effects(mixture: str) -> dict:
 
 def modified_bouc_wen(mixture: str = "1:3") -> Constitutive:
     """The damper law of one mixture (torque [Nm] from the angle history [deg]); condition ``pressure_mpa``."""
-    return Constitutive(_effects(mixture), units={"x": "deg", "F": "Nm", "t": "s"}, name=f"modified_bouc_wen[{mixture}]")
+    return Constitutive(_effects(mixture), units={"x": "deg", "F": "Nm", "t": "s"},
+                        name=f"modified_bouc_wen[{mixture}]")
 
 
 def vpptd_rig(mixture: str = "1:3", outputs=("x", "force")) -> DrivenOscillator:

@@ -42,7 +42,7 @@ class Kinematics:
     du: torch.Tensor
     a: torch.Tensor
 
-    def moved(self, x: torch.Tensor, v: torch.Tensor) -> "Kinematics":
+    def moved(self, x: torch.Tensor, v: torch.Tensor) -> Kinematics:
         return replace(self, x=x, v=v)
 
 

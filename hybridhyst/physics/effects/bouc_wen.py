@@ -48,7 +48,8 @@ class BoucWenHysteresis(Effect):
         self.driven_by = driven_by
         self.free_kappa = kappa is not None
         if self.free_kappa:
-            self.add_parameter("kappa", kappa, ParameterSpec(1.0, "F/x", (-1e9, 1e9), "real", doc="hysteretic force per unit z"))
+            spec = ParameterSpec(1.0, "F/x", (-1e9, 1e9), "real", doc="hysteretic force per unit z")
+            self.add_parameter("kappa", kappa, spec)
 
     def _kappa(self, p):
         return p["kappa"] if self.free_kappa else p["D"] * p["k"]
