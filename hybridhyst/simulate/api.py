@@ -42,6 +42,25 @@ def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Ten
     return out
 
 
+def _check_values(model, values, batch: int):
+    """Validate explicit per-row parameter values against the model's parameter names."""
+    out = {}
+    for key in list(model.effects) + ["structure"]:
+        given = values.get(key, {})
+        names = list(model.effects[key].params) if key != "structure" else list(model.structure_params)
+        missing = [n for n in names if n not in given]
+        if missing:
+            raise ValueError(f"values for {key!r} miss parameter(s) {missing}")
+        out[key] = {}
+        for n in names:
+            v = torch.as_tensor(given[n])
+            v = v.expand(batch) if v.ndim == 0 else v
+            if v.shape != (batch,):
+                raise ValueError(f"values[{key!r}][{n!r}] has shape {tuple(v.shape)}; expected ({batch},)")
+            out[key][n] = v
+    return out
+
+
 def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Tensor]:
     """Group records sharing a time grid into one batch each; return one ``(time, output_dim)`` per record."""
     from ..data.records import Record, RecordSet
@@ -82,7 +101,8 @@ def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Te
 def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None, initial_state=None,
              method: str = "rk4", substeps: int = 1, solver: str = "fixed", rtol: float = 1e-7,
              atol: float = 1e-9, adjoint: bool = False, options: dict | None = None,
-             return_states: bool = False, input_channels: tuple[str, ...] = ("x",)):
+             return_states: bool = False, input_channels: tuple[str, ...] = ("x",), values=None,
+             backend: str = "reference"):
     """Integrate ``model`` along an input history.
 
     Parameters
@@ -100,6 +120,11 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq method
         (e.g. "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``.
     return_states : also return the states ``(batch, time, state_dim)``.
+    backend : "reference" (the plain PyTorch loop) or "fast" (compiled numba loop with an exact discrete
+        adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``.
+    values : parameter values per batch row, ``{effect: {parameter: (batch,)}}`` as returned by
+        ``model.evaluate`` (the structure's under ``"structure"``); replaces the model's own values, so a
+        population of parameter sets (identification) or restarts run as one batch.
 
     Returns
     -------
@@ -113,7 +138,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
             raise ValueError("return_states is not available when simulating records; pass tensors instead")
         return _simulate_records(model, inputs, input_channels, initial_state=initial_state, method=method,
                                  substeps=substeps, solver=solver, rtol=rtol, atol=atol, adjoint=adjoint,
-                                 options=options)
+                                 options=options, backend=backend)
 
     dtype = _model_dtype(model)
     u = torch.as_tensor(inputs, dtype=dtype)
@@ -138,7 +163,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         raise ValueError("t must be strictly increasing")
 
     cond = _as_conditions(conditions, B, dtype, u.device)
-    P = model.evaluate(cond, B)
+    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B)
     U = with_rates(u, t)
     tau = model.input_delay(P)
     if tau is not None:
@@ -160,6 +185,14 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     else:
         state0 = model.initial_state(P, B)
 
+    if backend not in ("reference", "fast"):
+        raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
+    if backend == "fast":
+        if solver != "fixed" or return_states:
+            raise ValueError("backend='fast' runs the fixed-step solver and returns outputs only")
+        from .fast import simulate_fast
+
+        return simulate_fast(model, U, t, P, state0, method=method, substeps=substeps)
     if solver == "fixed":
         states = integrate_fixed(model, U, t, P, state0, method=method, substeps=substeps)
     elif solver == "torchdiffeq":

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, smooth_sign
+from .base import Effect, Kinematics, absolute, smooth_sign
 
 
 class AsymmetricCoulomb(Effect):
@@ -37,4 +37,4 @@ class AsymmetricCoulomb(Effect):
 
     def force(self, p, kin: Kinematics, state):
         s = smooth_sign(kin.v, p["v_s"])
-        return p["Fc"] * s + p["dF"] * s.abs()
+        return p["Fc"] * s + p["dF"] * absolute(s)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics
+from .base import Effect, Kinematics, absolute
 
 
 class Attenuation(Effect):
@@ -35,4 +35,4 @@ class Attenuation(Effect):
     }
 
     def force(self, p, kin: Kinematics, state):
-        return p["xi"] * kin.x.abs() * kin.u
+        return p["xi"] * absolute(kin.x) * kin.u

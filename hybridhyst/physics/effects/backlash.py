@@ -8,7 +8,7 @@ from typing import ClassVar
 import torch
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics
+from .base import Effect, Kinematics, rates, sign, tanh
 
 
 class Backlash(Effect):
@@ -65,10 +65,10 @@ class Backlash(Effect):
 
     def _taken_up(self, p, kin: Kinematics, gap: torch.Tensor) -> torch.Tensor:
         """h: ≈ 1 inside the dead band, 0 with the gap closed in the direction of motion."""
-        return torch.tanh((p["r"] - gap * torch.sign(kin.v)) / self.eps)
+        return tanh((p["r"] - gap * sign(kin.v)) / float(self.eps))
 
     def rate(self, p, kin: Kinematics, state):
-        return (kin.v * self._taken_up(p, kin, state[:, 0]))[:, None]
+        return rates(kin.v * self._taken_up(p, kin, state[:, 0]))
 
     def transform(self, p, kin: Kinematics, state):
         gap = state[:, 0]

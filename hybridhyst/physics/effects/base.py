@@ -23,7 +23,9 @@ from torch import nn
 
 from ..parameters import Fixed, ParameterSpec, build_function, render_unit
 
-__all__ = ["Effect", "Kinematics", "abs_pow", "smooth_sign"]
+__all__ = [
+    "Effect", "Kinematics", "abs_pow", "absolute", "exp", "rates", "sigmoid", "sign", "smooth_sign", "tanh",
+]
 
 
 @dataclass(frozen=True)
@@ -46,13 +48,53 @@ class Kinematics:
         return replace(self, x=x, v=v)
 
 
-def smooth_sign(v: torch.Tensor, width: torch.Tensor) -> torch.Tensor:
+# Elementary functions used by every effect. With torch tensors they compute the reference path; with
+# sympy expressions they build the symbolic equations of the compiled fast path (physics/symbolic.py),
+# so each effect's equations are written exactly once.
+
+
+def _symbolic():
+    from .. import symbolic
+
+    return symbolic
+
+
+def tanh(x):
+    return torch.tanh(x) if isinstance(x, torch.Tensor) else _symbolic().tanh(x)
+
+
+def exp(x):
+    return torch.exp(x) if isinstance(x, torch.Tensor) else _symbolic().exp(x)
+
+
+def sigmoid(x):
+    return torch.sigmoid(x) if isinstance(x, torch.Tensor) else _symbolic().sigmoid(x)
+
+
+def absolute(x):
+    return x.abs() if isinstance(x, torch.Tensor) else _symbolic().absolute(x)
+
+
+def sign(x):
+    return x.sign() if isinstance(x, torch.Tensor) else _symbolic().sign(x)
+
+
+def rates(*columns):
+    """Assemble an effect's state rates: ``(batch, state_dim)`` for tensors, a list for symbols."""
+    if isinstance(columns[0], torch.Tensor):
+        return torch.stack(columns, dim=1)
+    return list(columns)
+
+
+def smooth_sign(v, width):
     """tanh(v / width): the smoothed sign used by every friction term (width > 0, in velocity units)."""
-    return torch.tanh(v / width)
+    return tanh(v / width)
 
 
-def abs_pow(z: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
+def abs_pow(z, n):
     """|z|^n with a finite value and gradient (w.r.t. z and n) at z = 0 for n > 0."""
+    if not isinstance(z, torch.Tensor):
+        return _symbolic().abs_pow(z, n)
     a = z.abs()
     safe = torch.where(a > 0, a, torch.ones_like(a))
     return torch.where(a > 0, safe**n, torch.zeros_like(a))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, abs_pow
+from .base import Effect, Kinematics, abs_pow, absolute, rates, sign
 
 
 class BoucWenHysteresis(Effect):
@@ -58,8 +58,8 @@ class BoucWenHysteresis(Effect):
         z = state[:, 0]
         v = kin.v if self.driven_by == "motion" else kin.du
         zn = abs_pow(z, p["n"])
-        dz = (p["A"] * v - p["beta"] * v.abs() * zn * z.sign() - p["gamma"] * v * zn) / p["D"]
-        return dz[:, None]
+        dz = (p["A"] * v - p["beta"] * absolute(v) * zn * sign(z) - p["gamma"] * v * zn) / p["D"]
+        return rates(dz)
 
     def force(self, p, kin: Kinematics, state):
         x = kin.x

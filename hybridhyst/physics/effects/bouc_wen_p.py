@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, abs_pow
+from .base import Effect, Kinematics, abs_pow, absolute, rates, sign
 
 
 class BoucWenNormalised(Effect):
@@ -36,7 +36,7 @@ class BoucWenNormalised(Effect):
     def rate(self, p, kin: Kinematics, state):
         z, v = state[:, 0], kin.v
         zn = abs_pow(z, p["n"])
-        return (p["A"] * v - p["gamma"] * v.abs() * zn * z.sign() - p["beta"] * v * zn)[:, None]
+        return rates(p["A"] * v - p["gamma"] * absolute(v) * zn * sign(z) - p["beta"] * v * zn)
 
     def force(self, p, kin: Kinematics, state):
         w, a = p["omega"], p["alpha"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics
+from .base import Effect, Kinematics, absolute, rates
 
 
 class Dahl(Effect):
@@ -38,7 +38,7 @@ class Dahl(Effect):
 
     def rate(self, p, kin: Kinematics, state):
         z = state[:, 0]
-        return (kin.v - p["sigma0"] * kin.v.abs() * z / p["Fc"])[:, None]
+        return rates(kin.v - p["sigma0"] * absolute(kin.v) * z / p["Fc"])
 
     def force(self, p, kin: Kinematics, state):
         return p["sigma0"] * state[:, 0]

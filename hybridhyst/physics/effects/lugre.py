@@ -7,7 +7,7 @@ from typing import ClassVar
 import torch
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics
+from .base import Effect, Kinematics, absolute, exp, rates
 
 
 class LuGre(Effect):
@@ -48,13 +48,13 @@ class LuGre(Effect):
     @staticmethod
     def stribeck_curve(p, v: torch.Tensor) -> torch.Tensor:
         """g(v) = Fc + (Fs − Fc) exp(−(v/vs)²) [F], ``(batch,)``."""
-        return p["Fc"] + (p["Fs"] - p["Fc"]) * torch.exp(-((v / p["vs"]) ** 2))
+        return p["Fc"] + (p["Fs"] - p["Fc"]) * exp(-((v / p["vs"]) ** 2))
 
     def _dz(self, p, kin: Kinematics, z: torch.Tensor) -> torch.Tensor:
-        return kin.v - p["sigma0"] * kin.v.abs() * z / self.stribeck_curve(p, kin.v)
+        return kin.v - p["sigma0"] * absolute(kin.v) * z / self.stribeck_curve(p, kin.v)
 
     def rate(self, p, kin: Kinematics, state):
-        return self._dz(p, kin, state[:, 0])[:, None]
+        return rates(self._dz(p, kin, state[:, 0]))
 
     def force(self, p, kin: Kinematics, state):
         z = state[:, 0]

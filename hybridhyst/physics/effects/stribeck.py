@@ -4,10 +4,8 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import torch
-
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, smooth_sign
+from .base import Effect, Kinematics, exp, smooth_sign
 
 
 class Stribeck(Effect):
@@ -38,4 +36,4 @@ class Stribeck(Effect):
     }
 
     def force(self, p, kin: Kinematics, state):
-        return p["dFs"] * torch.exp(-((kin.v / p["vs"]) ** 2)) * smooth_sign(kin.v, p["v_s"])
+        return p["dFs"] * exp(-((kin.v / p["vs"]) ** 2)) * smooth_sign(kin.v, p["v_s"])

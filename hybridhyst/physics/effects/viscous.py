@@ -33,4 +33,4 @@ class Viscous(Effect):
         self.register_buffer("velocity_scale", torch.tensor(float(velocity_scale), dtype=torch.get_default_dtype()))
 
     def force(self, p, kin: Kinematics, state):
-        return p["c"] * self.velocity_scale * kin.v
+        return p["c"] * float(self.velocity_scale) * kin.v

@@ -1,0 +1,11 @@
+"""Compiled fast path of ``simulate``: numba loops generated from the effects' own equations.
+
+``simulate(..., backend="fast")`` runs here: the model's equations are built by calling its effects on
+sympy symbols, differentiated symbolically, and compiled (numba) into a forward loop and its exact
+discrete adjoint, wrapped as a ``torch.autograd.Function``. Values and gradients equal the reference
+loop's (tests assert 1e-8 relative in float64).
+"""
+
+from .function import simulate_fast as simulate_fast
+
+__all__ = ["simulate_fast"]
