@@ -140,3 +140,11 @@ def test_atomic_writes_replace_whole_files(tmp_path):
     atomic_write(path, "x")
     assert path.read_text() == "x"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]  # no temp files left behind
+
+
+def test_cli_missing_data_file_is_one_line_naming_the_file(tmp_path):
+    missing = tmp_path / "nope.csv"
+    proc = _cli("hybridhyst.cli.simulate", tmp_path, "input.kind=data", "data=table", f"data.path={missing}")
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "nope.csv" in lines[0], proc.stderr

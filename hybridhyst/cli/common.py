@@ -115,9 +115,10 @@ def instantiate(node, **kwargs):
         return _instantiate(node, **kwargs)
     except InstantiationException as exc:
         cause = exc.__cause__
-        if isinstance(cause, ValueError):
+        if isinstance(cause, (ValueError, FileNotFoundError)):
             raise cause from None
-        raise ValueError(str(exc).splitlines()[0]) from exc
+        detail = f": {cause}" if cause is not None else ""
+        raise ValueError(str(exc).splitlines()[0].rstrip(":") + detail) from exc
 
 
 def parameter_table(model) -> dict[str, dict[str, dict]]:
@@ -169,13 +170,13 @@ def torch_settings(dtype: str = "float64", threads: int | None = None, seed: int
 
 
 def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
-    """Call ``run(cfg)``; a ``ValueError`` becomes ``error: <message>`` on stderr and exit code 2.
+    """Call ``run(cfg)``; a ``ValueError`` or a missing file becomes ``error: <message>`` and exit code 2.
 
     ``HYBRIDHYST_TRACEBACK=1`` re-raises instead (for debugging).
     """
     try:
         return run(cfg)
-    except ValueError as exc:
+    except (ValueError, FileNotFoundError) as exc:
         if os.environ.get("HYBRIDHYST_TRACEBACK"):
             raise
         message = " ".join(str(exc).split()) or type(exc).__name__

@@ -207,6 +207,8 @@ class DrivenOscillator(NominalModel):
         bad = [o for o in outputs if o not in self._OUTPUTS]
         if bad or not outputs:
             raise ValueError(f"DrivenOscillator: unknown output(s) {bad}; choose from {self._OUTPUTS}")
+        if excitation == "base" and "drive_gain" not in fixed:
+            fixed = (*fixed, "drive_gain")  # a base-excited oscillator has no drive: nothing to train
         for key in fixed:
             if key not in self.structure_specs:
                 raise ValueError(f"DrivenOscillator: cannot fix unknown structure parameter {key!r}")

@@ -70,7 +70,7 @@ def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Te
     records = list(records.records if isinstance(records, RecordSet) else records)
     groups: dict[tuple, list[int]] = {}
     for i, r in enumerate(records):
-        key = (len(r), float(r.t[0]), float(r.t[-1]))
+        key = (len(r), r.t.tobytes())  # identical grids only: a batch shares one time axis
         groups.setdefault(key, []).append(i)
     out: list[torch.Tensor | None] = [None] * len(records)
     for idx in groups.values():
@@ -99,7 +99,7 @@ def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Te
 
 
 def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None, initial_state=None,
-             method: str = "rk4", substeps: int = 1, solver: str = "fixed", rtol: float = 1e-7,
+             method: str | None = None, substeps: int = 1, solver: str = "fixed", rtol: float = 1e-7,
              atol: float = 1e-9, adjoint: bool = False, options: dict | None = None,
              return_states: bool = False, input_channels: tuple[str, ...] = ("x",), values=None,
              backend: str = "reference"):
@@ -116,9 +116,11 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     t : sample times ``(time,)`` [s], strictly increasing; or give ``dt`` for a uniform grid from 0.
     conditions : {name: scalar or (batch,)} operating conditions for parameter functions.
     initial_state : ``(batch, 2)`` initial [x, ẋ] of an oscillator, or the full ``(batch, state_dim)``.
-    method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4") and sub-steps per
-        sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq method
-        (e.g. "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``.
+    method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4"; default "rk4") and
+        sub-steps per sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq
+        method (default "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``. The input is
+        linearly interpolated inside each sample interval, so for a driven model the scheme is second
+        order in the sample interval whatever its own order; sub-steps refine the state, not the input.
     return_states : also return the states ``(batch, time, state_dim)``.
     backend : "reference" (the plain PyTorch loop) or "fast" (compiled numba loop with an exact discrete
         adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``.
@@ -141,12 +143,45 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
                                  options=options, backend=backend)
 
     dtype = _model_dtype(model)
+    u, t = _prepare(inputs, t, dt, dtype)
+    B = u.shape[0]
+    cond = _as_conditions(conditions, B, dtype, u.device)
+    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B)
+    U = with_rates(u, t)
+    tau = model.input_delay(P)
+    if tau is not None:
+        U = delayed(U, t, tau)
+    state0 = _initial_state(model, P, B, initial_state, dtype, u.device)
+
+    if backend not in ("reference", "fast"):
+        raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
+    if backend == "fast":
+        if solver != "fixed" or return_states:
+            raise ValueError("backend='fast' runs the fixed-step solver and returns outputs only")
+        from .fast import simulate_fast
+
+        return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
+    if solver == "fixed":
+        states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
+    elif solver == "torchdiffeq":
+        if values is not None:
+            raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
+        states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=rtol, atol=atol,
+                                    adjoint=adjoint, options=options)
+    else:
+        raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
+    y = _outputs(model, states, U, P)
+    return (y, states) if return_states else y
+
+
+def _prepare(inputs, t, dt, dtype):
+    """Validated input ``(batch, time, C)`` and time grid ``(time,)``."""
     u = torch.as_tensor(inputs, dtype=dtype)
     if u.ndim == 2:
         u = u[..., None]
     if u.ndim != 3:
         raise ValueError(f"inputs must be (batch, time) or (batch, time, channels), got shape {tuple(u.shape)}")
-    B, T, _ = u.shape
+    T = u.shape[1]
     if T < 2:
         raise ValueError(f"inputs have {T} time sample(s); simulation needs at least 2")
     if not torch.isfinite(u).all():
@@ -161,53 +196,31 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         raise ValueError(f"t has shape {tuple(t.shape)} but inputs have {T} samples")
     if not bool((t[1:] > t[:-1]).all()):
         raise ValueError("t must be strictly increasing")
+    return u, t
 
-    cond = _as_conditions(conditions, B, dtype, u.device)
-    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B)
-    U = with_rates(u, t)
-    tau = model.input_delay(P)
-    if tau is not None:
-        U = delayed(U, t, tau)
 
-    if initial_state is not None:
-        initial_state = torch.as_tensor(initial_state, dtype=dtype, device=u.device)
-        if initial_state.ndim == 1:
-            initial_state = initial_state.expand(B, -1)
-        if initial_state.shape[1] == model.state_dim and model.state_dim != model.base_state_dim:
-            state0 = initial_state
-        elif initial_state.shape[1] == model.base_state_dim:
-            state0 = model.initial_state(P, B, base=initial_state)
-        else:
-            raise ValueError(
-                f"initial_state has {initial_state.shape[1]} columns; give {model.base_state_dim} "
-                f"(the structure's [x, v]) or {model.state_dim} (the full state)"
-            )
-    else:
-        state0 = model.initial_state(P, B)
+def _initial_state(model, P, batch, initial_state, dtype, device):
+    if initial_state is None:
+        return model.initial_state(P, batch)
+    s0 = torch.as_tensor(initial_state, dtype=dtype, device=device)
+    if s0.ndim == 1:
+        s0 = s0.expand(batch, -1)
+    if s0.shape[1] == model.state_dim and model.state_dim != model.base_state_dim:
+        return s0
+    if s0.shape[1] == model.base_state_dim:
+        return model.initial_state(P, batch, base=s0)
+    raise ValueError(
+        f"initial_state has {s0.shape[1]} columns; give {model.base_state_dim} "
+        f"(the structure's [x, v]) or {model.state_dim} (the full state)"
+    )
 
-    if backend not in ("reference", "fast"):
-        raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
-    if backend == "fast":
-        if solver != "fixed" or return_states:
-            raise ValueError("backend='fast' runs the fixed-step solver and returns outputs only")
-        from .fast import simulate_fast
 
-        return simulate_fast(model, U, t, P, state0, method=method, substeps=substeps)
-    if solver == "fixed":
-        states = integrate_fixed(model, U, t, P, state0, method=method, substeps=substeps)
-    elif solver == "torchdiffeq":
-        m = "dopri5" if method == "rk4" else method
-        states = integrate_adaptive(model, U, t, cond, state0, method=m, rtol=rtol, atol=atol,
-                                    adjoint=adjoint, options=options)
-    else:
-        raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
-
-    # outputs for all samples in one vectorised call: flatten (batch, time) -> rows
-    S = states.shape[-1]
-    flat_states = states.reshape(B * T, S)
+def _outputs(model, states, U, P):
+    """Outputs for all samples in one vectorised call: (batch, time) flattened into rows."""
     from ..physics.models import InputSample
 
+    B, T, S = states.shape
     Uf = U.reshape(B * T, 3)
     Pf = {k: {n: v.repeat_interleave(T) for n, v in d.items()} for k, d in P.items()}
-    y = model.output(flat_states, InputSample(Uf[:, 0], Uf[:, 1], Uf[:, 2]), Pf).reshape(B, T, -1)
-    return (y, states) if return_states else y
+    y = model.output(states.reshape(B * T, S), InputSample(Uf[:, 0], Uf[:, 1], Uf[:, 2]), Pf)
+    return y.reshape(B, T, -1)

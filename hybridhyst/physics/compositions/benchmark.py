@@ -11,8 +11,6 @@ from __future__ import annotations
 from ..effects import BoucWenHysteresis, LinearStiffness, Viscous
 from ..models import DrivenOscillator
 
-TRUE = dict(m=2.0, c=10.0, k=5e4, alpha=5e4, beta=1e3, gamma=0.8, delta=-1.1, nu=1.0)
-
 
 def boucwen_benchmark(m: float = 2.0, c: float = 10.0, k: float = 5e4, alpha: float = 5e4, beta: float = 1e3,
                       gamma: float = 0.8, delta: float = -1.1, nu: float = 1.0) -> DrivenOscillator:
@@ -21,7 +19,7 @@ def boucwen_benchmark(m: float = 2.0, c: float = 10.0, k: float = 5e4, alpha: fl
         "viscous": Viscous(c=c),
         "stiffness": LinearStiffness(k=k),
         "hysteresis": BoucWenHysteresis(alpha=0.0, k=0.0, kappa=1.0, D=1.0, A=alpha, beta=beta * gamma,
-                                        gamma=beta * delta, n=nu, fixed=["alpha", "k", "D"]),
+                                        gamma=beta * delta, n=nu, fixed=["alpha", "k", "k1", "D", "kappa"]),
     }
     return DrivenOscillator(effects, units={"x": "m", "F": "N", "u": "N", "t": "s"}, name="boucwen_benchmark",
-                            mass=m)
+                            mass=m, fixed=("drive_gain",))

@@ -31,7 +31,7 @@ def piezo_attenuation(params: dict | None = None) -> DrivenOscillator:
         "friction": Coulomb(Fc=q["f_f"], v_s=1.0 / q["sigma"]),
         "attenuation": EFFECTS["attenuation"](xi=gain * q["xi"]),  # N/(µm·V)
         "hysteresis": BoucWenHysteresis(driven_by="input", alpha=0.0, k=0.0, kappa=gain, D=1.0, A=q["alpha"],
-                                        beta=q["beta"], gamma=q["gamma"], n=q["n"], fixed=["alpha", "k", "D"]),
+                                        beta=q["beta"], gamma=q["gamma"], n=q["n"], fixed=["alpha", "k", "k1", "D"]),
     }
     return DrivenOscillator(effects, units={"x": "um", "F": "N", "u": "V", "t": "s"}, name="piezo_attenuation",
                             mass=q["m_eq"] * UM, drive_gain=gain * q["d33"])

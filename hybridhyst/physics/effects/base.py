@@ -175,10 +175,15 @@ class Effect(nn.Module):
         """Mass ``(batch,)`` [F*t^2/x] added to the structure (inertia), or None."""
         return None
 
-    def add_parameter(self, pname: str, value, spec: ParameterSpec) -> None:
+    def add_parameter(self, pname: str, value, spec: ParameterSpec, fixed: bool = False) -> None:
         """Register a parameter that exists only in some configurations (e.g. a free Bouc–Wen κ)."""
         self.param_specs[pname] = spec
-        self.params[pname] = build_function(value, spec)
+        if fixed:
+            if not isinstance(value, (int, float)):
+                raise ValueError(f"effect {self.name!r}: a fixed parameter {pname!r} must be a number")
+            self.params[pname] = Fixed(value)
+        else:
+            self.params[pname] = build_function(value, spec)
 
     def extra_repr(self) -> str:
         return self.equation

@@ -41,15 +41,18 @@ class BoucWenHysteresis(Effect):
         "n": ParameterSpec(1.0, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),
     }
 
-    def __init__(self, driven_by: str = "motion", kappa=None, **values):
+    def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):
         if driven_by not in ("motion", "input"):
             raise ValueError(f"bouc_wen: driven_by must be 'motion' or 'input', got {driven_by!r}")
-        super().__init__(**values)
+        fix_kappa = "kappa" in fixed
+        if fix_kappa and kappa is None:
+            raise ValueError("bouc_wen: fixing 'kappa' needs a kappa value")
+        super().__init__(fixed=[f for f in fixed if f != "kappa"], **values)
         self.driven_by = driven_by
         self.free_kappa = kappa is not None
         if self.free_kappa:
             spec = ParameterSpec(1.0, "F/x", (-1e9, 1e9), "real", doc="hysteretic force per unit z")
-            self.add_parameter("kappa", kappa, spec)
+            self.add_parameter("kappa", kappa, spec, fixed=fix_kappa)
 
     def _kappa(self, p):
         return p["kappa"] if self.free_kappa else p["D"] * p["k"]
