@@ -77,11 +77,11 @@ def test_simulate_seed001_study_summary_shape(tmp_path):
     nbr = on_disk["mixtures"]["NBR"]
     assert set(nbr) == {"pressure_mpa", "frequency_hz"}
     assert nbr["pressure_mpa"] == [0.01, 0.09]
-    assert all(0.1 < f < 1.0 for f in nbr["frequency_hz"])
+    # NBR spans 0.25-0.30 Hz in seed 001 Table 2 and rises with underpressure
+    assert nbr["frequency_hz"][0] == pytest.approx(0.25, abs=0.05)
+    assert nbr["frequency_hz"][1] > nbr["frequency_hz"][0]
 
 
-@pytest.mark.skipif(not (Path(CONF_DIR) / "experiment" / "seed001_free_vibration.yaml").exists(),
-                    reason="conf/experiment/seed001_free_vibration.yaml not written yet")
 def test_seed001_experiment_selects_the_study(tmp_path):
     cfg = _compose("simulate", tmp_path, ["experiment=seed001_free_vibration"])
     assert cfg.study in simulate.STUDIES

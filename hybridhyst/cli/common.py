@@ -101,6 +101,13 @@ def jsonable(obj):
     return obj
 
 
+def to_plain(node):
+    """An OmegaConf node as plain python containers (other values unchanged)."""
+    from omegaconf import DictConfig, ListConfig, OmegaConf
+
+    return OmegaConf.to_container(node, resolve=True) if isinstance(node, (DictConfig, ListConfig)) else node
+
+
 def write_json(path: Path | str, obj) -> Path:
     """Atomic JSON write (temp file + ``os.replace``)."""
     return atomic_write(path, json.dumps(jsonable(obj), indent=2) + "\n")

@@ -27,6 +27,7 @@ from .common import (
     instantiate,
     parameter_table,
     prepare_run_dir,
+    to_plain,
     torch_settings,
     write_json,
 )
@@ -34,9 +35,6 @@ from .fit_report import write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
-
-def _container(node):
-    return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
 
 
 def load_split(data_cfg: DictConfig, split_cfg: DictConfig):
@@ -47,11 +45,11 @@ def load_split(data_cfg: DictConfig, split_cfg: DictConfig):
     (train, held_out) record sets. A ``ValueError`` names a condition or value that matches nothing.
     """
     records = instantiate(data_cfg, _convert_="all")
-    select = _container(split_cfg.get("select")) or {}
+    select = to_plain(split_cfg.get("select")) or {}
     records = records.select(**select)
     if len(records) == 0:
         raise ValueError(f"data selection {select} leaves no records")
-    held_out = _container(split_cfg.get("held_out"))
+    held_out = to_plain(split_cfg.get("held_out"))
     train, _, test = records.split(held_out=held_out)
     return train, test
 
@@ -112,12 +110,12 @@ def _reference(cfg) -> dict | None:
     ref = cfg.get("reference")
     if not ref:
         return None
-    protocol = _container(ref.protocol)
-    used = {"data": _container(cfg.data), "select": _container(cfg.split.select),
-            "held_out": _container(cfg.split.held_out)}
+    protocol = to_plain(ref.protocol)
+    used = {"data": to_plain(cfg.data), "select": to_plain(cfg.split.select),
+            "held_out": to_plain(cfg.split.held_out)}
     if any(used[k] != v for k, v in protocol.items()):
         return None
-    return {"source": ref.source, "held_out_rmse": _container(ref.held_out_rmse)}
+    return {"source": ref.source, "held_out_rmse": to_plain(ref.held_out_rmse)}
 
 
 def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:

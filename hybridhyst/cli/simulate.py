@@ -14,17 +14,23 @@ import hydra
 import numpy as np
 import pandas as pd
 import torch
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from ..identify.gradient import decimate
 from ..simulate import simulate
-from .common import CONF_DIR, atomic_write, guarded, instantiate, prepare_run_dir, torch_settings, write_json
+from .common import (
+    CONF_DIR,
+    atomic_write,
+    guarded,
+    instantiate,
+    prepare_run_dir,
+    to_plain,
+    torch_settings,
+    write_json,
+)
 
 __all__ = ["STUDIES", "main", "run"]
 
-
-def _plain(node):
-    return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
 
 
 def _output_names(model) -> list[str]:
@@ -55,7 +61,7 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
     solver = cfg.solver
     with torch.no_grad():
-        y = simulate(model, u[None], t=t, conditions=_plain(cfg.conditions) or None, initial_state=initial,
+        y = simulate(model, u[None], t=t, conditions=to_plain(cfg.conditions) or None, initial_state=initial,
                      method=solver.method, substeps=int(solver.substeps))[0].cpu().numpy()
     frame = pd.DataFrame({"record": kind, "t": t, "u": u})
     for i, name in enumerate(_output_names(model)):
@@ -73,7 +79,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     from ..analysis import rmse
 
     records = instantiate(cfg.data, _convert_="all")
-    select = _plain(cfg.input.get("select")) or {}
+    select = to_plain(cfg.input.get("select")) or {}
     records = [decimate(r, int(cfg.input.downsample)) for r in records.select(**select)]
     if not records:
         raise ValueError(f"input.select {select} leaves no records to simulate")
@@ -102,7 +108,7 @@ def _seed001_free_vibration(cfg) -> dict:
     unknown = [m for m in mixtures if m not in MIXTURES]
     if unknown:
         raise ValueError(f"study_options.mixtures: unknown mixture(s) {unknown}; choose from {list(MIXTURES)}")
-    kwargs = {"pressures": _plain(opts.get("pressures")), "duration": float(opts.get("duration_s", 20.0)),
+    kwargs = {"pressures": to_plain(opts.get("pressures")), "duration": float(opts.get("duration_s", 20.0)),
               "dt": float(opts.get("dt", 1e-3))}
     out = {}
     for mixture in tqdm(mixtures, desc="mixtures", disable=not cfg.progress, leave=False):

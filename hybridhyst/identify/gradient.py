@@ -16,10 +16,9 @@ from dataclasses import dataclass, field
 
 import torch
 from torch import nn
-from torch.nn.utils import parametrize
 
 from ..data.records import Record, RecordSet
-from ..physics.parameters import Constant, PerCondition
+from ..physics.parameters import project_to_bounds
 from ..simulate import simulate
 
 __all__ = ["FitResult", "decimate", "fit_gradient", "record_loss"]
@@ -110,25 +109,6 @@ def _param_groups(model: nn.Module, lr: float) -> list[dict]:
     return groups
 
 
-def _project(model: nn.Module) -> None:
-    """Keep unconstrained amplitudes (constraint ``nonnegative``) inside their spec bounds after a step."""
-    for module in model.modules():
-        specs = getattr(module, "param_specs", None)
-        params = getattr(module, "params", None)
-        if not specs or params is None:
-            continue
-        for pname, fn in params.items():
-            spec = specs.get(pname)
-            if spec is None or spec.constraint != "nonnegative":
-                continue
-            attr = "value" if isinstance(fn, Constant) else "values" if isinstance(fn, PerCondition) else None
-            if attr is None or parametrize.is_parametrized(fn, attr):
-                continue
-            lo, hi = spec.bounds
-            with torch.no_grad():
-                getattr(fn, attr).clamp_(min=lo if math.isfinite(lo) else None, max=hi if math.isfinite(hi) else None)
-
-
 class _Objective:
     """Loss of the model on the records, keeping the best parameters seen.
 
@@ -143,7 +123,7 @@ class _Objective:
         self.best_state = copy.deepcopy(model.state_dict())
 
     def __call__(self) -> torch.Tensor:
-        _project(self.model)
+        project_to_bounds(self.model)
         self.evaluations += 1
         preds = simulate(self.model, self.records, **self.sim_kwargs)
         value = record_loss(preds, self.records, self.loss)
@@ -184,7 +164,7 @@ def _run_adam(obj: _Objective, steps: int, lr: float, progress: bool, history: l
                 continue
             value.backward()
             opt.step()
-            _project(obj.model)
+            project_to_bounds(obj.model)
             done += 1
             history.append(float(value.detach()))
             bar.update(1)
@@ -208,7 +188,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
     with _progress(iters, "lbfgs", progress) as bar:
         for _ in range(iters):
             value = opt.step(closure)
-            _project(obj.model)
+            project_to_bounds(obj.model)
             done += 1
             if not torch.isfinite(value):
                 break

@@ -34,6 +34,7 @@ __all__ = [
     "Polynomial",
     "Positive",
     "build_function",
+    "project_to_bounds",
     "render_unit",
 ]
 
@@ -346,3 +347,28 @@ def build_function(value, spec: ParameterSpec | None = None) -> ParameterFunctio
             kwargs["coeffs"] = list(kwargs["coeffs"])
         return _FUNCTIONS[kind](**kwargs)
     raise ValueError(f"cannot build a parameter function from {value!r}")
+
+
+def project_to_bounds(model: nn.Module) -> None:
+    """Projected-gradient step: put unconstrained amplitudes (``nonnegative``) back inside their bounds.
+
+    Call after an optimiser step. These parameters are stored unconstrained so that they can sit exactly
+    at their neutral value 0 with a live gradient; the projection (not a clamp inside the forward pass)
+    keeps them admissible. Parameter functions of a condition (linear, polynomial, …) are not projected:
+    their coefficients have no sign constraint, only their values do.
+    """
+    for module in model.modules():
+        specs = getattr(module, "param_specs", None)
+        params = getattr(module, "params", None)
+        if not specs or params is None:
+            continue
+        for pname, fn in params.items():
+            spec = specs.get(pname)
+            if spec is None or spec.constraint != "nonnegative":
+                continue
+            attr = "value" if isinstance(fn, Constant) else "values" if isinstance(fn, PerCondition) else None
+            if attr is None or parametrize.is_parametrized(fn, attr):
+                continue
+            lo, hi = spec.bounds
+            with torch.no_grad():
+                getattr(fn, attr).clamp_(min=lo if math.isfinite(lo) else None, max=hi if math.isfinite(hi) else None)

@@ -12,11 +12,11 @@ import math
 
 import numpy as np
 
+from ...physics.compositions.seed001 import MIXTURES
 from ..records import Record, RecordSet
 
 __all__ = ["MIXTURES", "PRESSURES", "load_vpptd"]
 
-MIXTURES = ("ABS", "3:1", "1:1", "1:3", "NBR")
 PRESSURES = tuple(round(0.01 * i, 2) for i in range(1, 10))
 # largest RK4 step [s]: explicit RK4 on this law diverges above about 7 ms (NBR at 0.01 MPa first);
 # at 2.5 ms the torque is within about 4e-3 Nm of a converged solution

@@ -29,7 +29,7 @@ class BoucWenHysteresis(Effect):
     name = "bouc_wen"
     state_dim = 1
     equation = "F = a(k x + k1 x^3) + (1-a) kappa z;  D dz/dt = A v - beta|v||z|^(n-1) z - gamma v |z|^n"
-    source = "seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
+    source = "Bouc 1967; Wen 1976; seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
     specs = {
         "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "real", doc="ratio of elastic to total stiffness"),
         "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", doc="stiffness"),

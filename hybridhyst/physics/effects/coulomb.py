@@ -9,8 +9,8 @@ from .base import Effect, Kinematics, smooth_sign
 class Coulomb(Effect):
     """Coulomb friction with a smoothed sign, F = Fc · tanh(v / v_s).
 
-    Fc [F] is the sliding friction level (seed 000's and 001's M_s, seed 003's f_f); v_s [x/t] the
-    velocity over which the sign is smoothed (seed 003 writes tanh(σ v) with σ = 1/v_s). v_s → 0
+    Units: Fc [F] is the sliding friction level (seed 000's and 001's M_s, seed 003's f_f); v_s [x/t]
+    the velocity over which the sign is smoothed (seed 003 writes tanh(σ v) with σ = 1/v_s). v_s → 0
     recovers sgn(v). Shapes: (batch,). Source: seeds 000 (eq. 1), 001 (eq. 1), 003 (eq. 3).
     """
 
