@@ -76,7 +76,7 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
     """
     data = [decimate(r, factors[r.name]) for r in records]
     with torch.no_grad():
-        preds = simulate(model, data, method=solver.method, substeps=solver.substeps)
+        preds = simulate(model, data, method=solver.method, substeps=solver.substeps, backend=solver.backend)
     per, frames = {}, []
     sq, n = 0.0, 0
     for r_full, r, p in zip(records, data, preds):
@@ -100,7 +100,7 @@ def _fit(model, train, cfg) -> tuple:
     result = fit_gradient(
         model, list(train), steps=int(fit.steps), lr=float(fit.lr), downsample=factors, loss=fit.loss,
         lbfgs_steps=int(fit.lbfgs_steps), progress=bool(cfg.progress), method=fit.method,
-        substeps=int(fit.substeps),
+        substeps=int(fit.substeps), backend=str(fit.backend),
     )
     return result, factors
 
@@ -121,7 +121,7 @@ def _reference(cfg) -> dict | None:
 def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:
     """RMSE on the evaluation grid for both parts: (scores, prediction frames, decimation factors)."""
     ev = cfg.evaluate
-    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps})
+    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps, "backend": cfg.fit.backend})
     scores, frames, factors = {}, {}, {}
     for part, records in (("train", train), ("held_out", held_out)):
         f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.split.frequency_condition)

@@ -203,6 +203,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
 def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record], *, steps: int = 100,
                  lr: float = 0.05, downsample: int | Mapping[str, int] = 1, loss: str = "mse",
                  lbfgs_steps: int = 0, progress: bool = True, method: str = "rk4", substeps: int = 1,
+                 backend: str = "reference",
                  input_channels: tuple[str, ...] = ("x",)) -> FitResult:
     """Fit every trainable parameter of ``model`` to ``records`` by gradient descent through ``simulate``.
 
@@ -219,7 +220,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     loss : ``"mse"`` or ``"mae"``, pooled over all samples.
     lbfgs_steps : L-BFGS iterations after Adam (strong-Wolfe line search; 0 to skip).
     progress : show tqdm progress bars.
-    method, substeps : fixed-step scheme passed to ``simulate``.
+    method, substeps, backend : fixed-step scheme and backend ("reference" or "fast") passed to ``simulate``.
 
     Returns
     -------
@@ -237,7 +238,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
     data = _decimate_all(records, downsample)
-    sim_kwargs = {"method": method, "substeps": substeps, "input_channels": tuple(input_channels)}
+    sim_kwargs = {"method": method, "substeps": substeps, "input_channels": tuple(input_channels), "backend": backend}
     obj = _Objective(model, data, loss, sim_kwargs)
     history: list[float] = []
     n_adam = _run_adam(obj, steps, lr, progress, history) if steps else 0
