@@ -82,7 +82,7 @@ def vpptd_rig(mixture: str = "1:3", outputs=("x", "force")) -> DrivenOscillator:
 
 
 def free_vibration_frequencies(mixture: str, pressures=None, duration: float = 10.0, dt: float = 2e-3,
-                               initial=None, method: str = "fft"):
+                               initial=None, method: str = "fft", backend: str = "fast"):
     """Free-vibration frequency [Hz] of the rig at each underpressure (seed 001 Table 2).
 
     Simulates φ₁ ≡ 0 from the figure caption's initial conditions and estimates the frequency of
@@ -98,7 +98,7 @@ def free_vibration_frequencies(mixture: str, pressures=None, duration: float = 1
     n = int(round(duration / dt)) + 1
     with torch.no_grad():
         y = simulate(model, torch.zeros(len(pressures), n), dt=dt, conditions={CONDITION: pressures},
-                     initial_state=torch.tensor([[x0, v0]] * len(pressures)))
+                     initial_state=torch.tensor([[x0, v0]] * len(pressures)), backend=backend)
     x = y[..., 0].double().numpy()
     freqs = np.array([free_vibration_frequency(xi, dt, method=method) for xi in x])
     return pressures, freqs

@@ -67,6 +67,7 @@ def generate_source(eq: Equations) -> str:
     parts = [
         HEADER,
         f"S, P, O = {n_state}, {n_param}, {n_out}",
+        f"PARALLEL = {bool(PARALLEL)}",
         _kernel("rhs", args + ["f"], f_t, printer, eq),
         _kernel("rhs_jac", args + ["f", "fs", "fth", "fin"], f_full, printer, eq),
         _kernel("out", args + ["g"], g_t, printer, eq),
@@ -91,6 +92,10 @@ def _cache_dir() -> Path:
 
 
 _MODULES: dict[str, object] = {}
+# HYBRIDHYST_FAST_PARALLEL=1 runs the rows of a batch on all cores (numba prange). Off by default: the
+# parallel build compiles 3-4x slower (9 s vs 31 s per model measured on the 2-core machine under load)
+# and only pays off for large populations on machines with idle cores.
+PARALLEL = os.environ.get("HYBRIDHYST_FAST_PARALLEL", "0") == "1"
 
 
 def compile_equations(eq: Equations):
@@ -135,14 +140,14 @@ def _abs_pow_log(z, n):
     a = abs(z)
     return a ** n * math.log(a) if a > 0 else 0.0'''
 
-LOOPS = '''@njit(cache=True, parallel=True)
+LOOPS = '''@njit(cache=True, parallel=PARALLEL)
 def forward(U, h, th, s0, c, A, bw, sub, states, y):
     """States at sample times and outputs; U (B,T,3), h (T-1,), th (B,P), s0 (B,S). Rows in parallel."""
     for b in prange(U.shape[0]):
         forward_row(b, U, h, th, s0, c, A, bw, sub, states, y)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=PARALLEL)
 def backward(U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy. Rows in parallel."""
     for b in prange(U.shape[0]):
@@ -150,40 +155,52 @@ def backward(U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
 
 
 @njit(cache=True)
+def stage_state(st, K, j, hk, A, Y):
+    """Y = st + hk * sum_l A[j, l] K[l] (the state at stage j)."""
+    for i in range(S):
+        acc = st[i]
+        for l in range(j):
+            acc += hk * A[j, l] * K[l, i]
+        Y[i] = acc
+
+
+@njit(cache=True)
+def stage_input(U, b, k, fr):
+    """The input (u, du, ddu) a fraction ``fr`` into sample interval k (linear interpolation)."""
+    return (U[b, k, 0] + (U[b, k + 1, 0] - U[b, k, 0]) * fr,
+            U[b, k, 1] + (U[b, k + 1, 1] - U[b, k, 1]) * fr,
+            U[b, k, 2] + (U[b, k + 1, 2] - U[b, k, 2]) * fr)
+
+
+@njit(cache=True)
+def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub):
+    """Advance ``st`` in place by sub-step m of interval k."""
+    for j in range(c.shape[0]):
+        stage_state(st, K, j, hk, A, Y)
+        uu, dd, aa = stage_input(U, b, k, (m + c[j]) / sub)
+        rhs(Y, uu, dd, aa, th[b], K[j])
+    for i in range(S):
+        acc = 0.0
+        for j in range(c.shape[0]):
+            acc += bw[j] * K[j, i]
+        st[i] += hk * acc
+
+
+@njit(cache=True)
 def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     T = U.shape[1]
-    nst = c.shape[0]
-    K = np.zeros((nst, S))
+    K = np.zeros((c.shape[0], S))
     Y = np.zeros(S)
     st = s0[b].copy()
     g = np.zeros(O)
-    for i in range(S):
-        states[b, 0, i] = st[i]
+    states[b, 0, :] = st
     for k in range(T - 1):
-        hk = h[k] / sub
         for m in range(sub):
-            for j in range(nst):
-                for i in range(S):
-                    acc = st[i]
-                    for l in range(j):
-                        acc += hk * A[j, l] * K[l, i]
-                    Y[i] = acc
-                fr = (m + c[j]) / sub
-                uu = U[b, k, 0] + (U[b, k + 1, 0] - U[b, k, 0]) * fr
-                dd = U[b, k, 1] + (U[b, k + 1, 1] - U[b, k, 1]) * fr
-                aa = U[b, k, 2] + (U[b, k + 1, 2] - U[b, k, 2]) * fr
-                rhs(Y, uu, dd, aa, th[b], K[j])
-            for i in range(S):
-                acc = 0.0
-                for j in range(nst):
-                    acc += bw[j] * K[j, i]
-                st[i] += hk * acc
-        for i in range(S):
-            states[b, k + 1, i] = st[i]
+            substep(b, k, m, st, K, Y, h[k] / sub, U, th, c, A, bw, sub)
+        states[b, k + 1, :] = st
     for k in range(T):
         out(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g)
-        for o in range(O):
-            y[b, k, o] = g[o]
+        y[b, k, :] = g
 
 
 @njit(cache=True)
@@ -196,6 +213,7 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     gt = np.zeros((O, P))
     gi = np.zeros((O, 3))
     K = np.zeros((nst, S))
+    Y = np.zeros(S)
     Yst = np.zeros((nst, S))
     FS = np.zeros((nst, S, S))
     FT = np.zeros((nst, S, P))
@@ -204,8 +222,8 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     lamK = np.zeros((nst, S))
     lamY = np.zeros(S)
     st = np.zeros(S)
-    f = np.zeros(S)
     for k in range(T - 1, -1, -1):
+        # output y_k = g(s_k, U_k, th)
         out_jac(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, gs, gt, gi)
         for o in range(O):
             w = gy[b, k, o]
@@ -220,41 +238,18 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
             break
         kk = k - 1
         hk = h[kk] / sub
-        # re-run the sub-steps of interval kk forward to recover their start states
-        for i in range(S):
-            st[i] = states[b, kk, i]
+        # recover the start state of every sub-step of interval kk
+        st[:] = states[b, kk]
         for m in range(sub):
-            for i in range(S):
-                sub_start[m, i] = st[i]
-            for j in range(nst):
-                for i in range(S):
-                    acc = st[i]
-                    for l in range(j):
-                        acc += hk * A[j, l] * K[l, i]
-                    Yst[j, i] = acc
-                fr = (m + c[j]) / sub
-                uu = U[b, kk, 0] + (U[b, kk + 1, 0] - U[b, kk, 0]) * fr
-                dd = U[b, kk, 1] + (U[b, kk + 1, 1] - U[b, kk, 1]) * fr
-                aa = U[b, kk, 2] + (U[b, kk + 1, 2] - U[b, kk, 2]) * fr
-                rhs(Yst[j], uu, dd, aa, th[b], K[j])
-            for i in range(S):
-                acc = 0.0
-                for j in range(nst):
-                    acc += bw[j] * K[j, i]
-                st[i] += hk * acc
+            sub_start[m, :] = st
+            substep(b, kk, m, st, K, Y, hk, U, th, c, A, bw, sub)
         for m in range(sub - 1, -1, -1):
-            # stages of sub-step m from its start state, with Jacobians
+            # stages of sub-step m with their Jacobians
             for j in range(nst):
-                for i in range(S):
-                    acc = sub_start[m, i]
-                    for l in range(j):
-                        acc += hk * A[j, l] * K[l, i]
-                    Yst[j, i] = acc
-                fr = (m + c[j]) / sub
-                uu = U[b, kk, 0] + (U[b, kk + 1, 0] - U[b, kk, 0]) * fr
-                dd = U[b, kk, 1] + (U[b, kk + 1, 1] - U[b, kk, 1]) * fr
-                aa = U[b, kk, 2] + (U[b, kk + 1, 2] - U[b, kk, 2]) * fr
+                stage_state(sub_start[m], K, j, hk, A, Yst[j])
+                uu, dd, aa = stage_input(U, b, kk, (m + c[j]) / sub)
                 rhs_jac(Yst[j], uu, dd, aa, th[b], K[j], FS[j], FT[j], FI[j])
+            # adjoint of s' = s + hk sum_j bw_j K_j, K_j = f(Y_j), Y_j = s + hk sum_l A_jl K_l
             for j in range(nst):
                 for i in range(S):
                     lamK[j, i] = hk * bw[j] * lam[i]
@@ -281,5 +276,4 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
                         lamK[l, i] += hk * A[j, l] * lamY[i]
                 for i in range(S):
                     lam[i] += lamY[i]
-    for i in range(S):
-        gs0[b, i] = lam[i]'''
+    gs0[b, :] = lam'''

@@ -26,20 +26,15 @@ class Equations:
 
 
 def _param_symbols(model):
+    groups = [(key, list(effect.params)) for key, effect in model.effects.items()]
+    groups.append((STRUCTURE, list(model.structure_params)))
     keys, syms, P = [], [], {}
-    for key, effect in model.effects.items():
+    for key, names in groups:
         P[key] = {}
-        for name in effect.params:
-            sym = sp.Symbol(f"th{len(syms)}", real=True)
-            P[key][name] = sym
+        for name in names:
+            P[key][name] = sym = sp.Symbol(f"th{len(syms)}", real=True)
             keys.append((key, name))
             syms.append(sym)
-    P[STRUCTURE] = {}
-    for name in model.structure_params:
-        sym = sp.Symbol(f"th{len(syms)}", real=True)
-        P[STRUCTURE][name] = sym
-        keys.append((STRUCTURE, name))
-        syms.append(sym)
     return keys, syms, P
 
 
