@@ -1,0 +1,189 @@
+"""Batched identification: search space, DE / CMA-ES, refinement, Fisher analysis, joint fits, the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from hybridhyst.cli import identify as identify_cli
+from hybridhyst.cli.common import CONF_DIR
+from hybridhyst.data import Record, RecordSet
+from hybridhyst.identify import (
+    RecordsProblem,
+    SearchSpace,
+    cma_es,
+    differential_evolution,
+    fisher_analysis,
+    identify,
+    output_jacobian,
+    refine,
+)
+from hybridhyst.identify.refine import levenberg_marquardt
+from hybridhyst.physics.effects import EFFECTS, Viscous
+from hybridhyst.physics.models import Constitutive
+from hybridhyst.simulate import simulate
+
+TRUE = {"dahl.Fc": 2.0, "dahl.sigma0": 10.0, "viscous.c": 0.5}
+BOUNDS = {"dahl.Fc": (0.5, 8.0), "dahl.sigma0": (2.0, 50.0), "viscous.c": (0.05, 2.0)}
+
+
+def _dahl(Fc=1.0, sigma0=20.0, c=0.2) -> Constitutive:
+    """Viscous + Dahl friction law (in, kip, s) in float64."""
+    effects = {"viscous": Viscous(c=c), "dahl": EFFECTS["dahl"](Fc=Fc, sigma0=sigma0)}
+    return Constitutive(effects, units={"x": "in", "F": "kip", "t": "s"}, name="dahl").double()
+
+
+def _records(model, conditions_list, n=301) -> RecordSet:
+    """Noise-free synthetic loops: 1 in, 1 Hz sine over 1.5 cycles, one record per condition set."""
+    t = np.linspace(0.0, 1.5, n)
+    x = np.sin(2 * np.pi * t)
+    out = []
+    for i, cond in enumerate(conditions_list):
+        with torch.no_grad():
+            y = simulate(model, torch.as_tensor(x)[None], t=torch.as_tensor(t), conditions=cond or None,
+                         backend="fast")[0, :, 0].numpy()
+        out.append(Record(name=f"r{i}", t=t, x=x, y=y, conditions=cond, units={"x": "in", "y": "kip"}))
+    return RecordSet(out, "synthetic")
+
+
+@pytest.fixture(scope="module")
+def dahl_data():
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield _records(_dahl(**{k.split(".")[1]: v for k, v in TRUE.items()}), [{}])
+    torch.set_default_dtype(old)
+
+
+def _problem(records, bounds=BOUNDS, model=None):
+    space = SearchSpace(model or _dahl(), bounds)
+    return RecordsProblem(space, list(records))
+
+
+def _relative_error(space, x) -> float:
+    return max(abs(float(x[i]) / TRUE[n] - 1) for i, n in enumerate(space.names))
+
+
+def test_search_space_coordinates_bounds_and_write_back(float64):
+    model = Constitutive({"viscous": Viscous(c=0.0), "dahl": EFFECTS["dahl"](
+        Fc={"kind": "linear", "slope": 20.0, "intercept": 1.0}, sigma0=10.0)})
+    space = SearchSpace(model, {"dahl.sigma0": (1.0, 100.0)})
+    assert space.names == ["viscous.c", "dahl.sigma0", "dahl.Fc.c0", "dahl.Fc.c1"]
+    c = {co.name: co for co in space.coordinates}
+    assert (c["viscous.c"].lower, c["viscous.c"].upper) == (0.0, 1.0)  # v = 0: (-1, 1) within spec (0, 1e6)
+    assert (c["dahl.Fc.c1"].lower, c["dahl.Fc.c1"].upper) == (2.0, 200.0)
+    X = torch.tensor([[0.1, 5.0, 1.0, 20.0], [0.2, 6.0, 2.0, 10.0]])
+    P = space.values(X, {"pressure_mpa": torch.tensor([0.0, 0.1, 0.2])}, 3)
+    assert torch.allclose(P["dahl"]["Fc"], torch.tensor([1.0, 3.0, 5.0, 2.0, 3.0, 4.0]))
+    assert torch.equal(P["viscous"]["c"], torch.tensor([0.1] * 3 + [0.2] * 3))
+    space.to_model(X[1])
+    assert torch.allclose(space.initial(), X[1])
+    with pytest.raises(ValueError, match="unknown coordinate"):
+        SearchSpace(model, {"dahl.nope": (0, 1)})
+
+
+@pytest.mark.parametrize("search", [differential_evolution, cma_es])
+def test_global_search_recovers_dahl_law(search, dahl_data):
+    problem = _problem(dahl_data)
+    kw = {"pop": 24, "generations": 150} if search is differential_evolution else {"generations": 150}
+    found = search(problem.cost, problem.space, seed=1, target=1e-10, progress=False, **kw)
+    assert found.cost < 1e-8 or _relative_error(problem.space, found.x) < 0.01
+    assert _relative_error(problem.space, found.x) < 0.01
+    assert found.history == sorted(found.history, reverse=True)  # best cost never increases
+
+
+def test_same_seed_same_result_and_diverging_members_get_inf(dahl_data):
+    # absurd bounds: sigma0 up to 1e9 makes the explicit RK4 state blow up for many members
+    problem = _problem(dahl_data, {**BOUNDS, "dahl.sigma0": (2.0, 1e9)})
+    runs = [differential_evolution(problem.cost, problem.space, pop=16, generations=8, seed=3, progress=False)
+            for _ in range(2)]
+    assert runs[0].non_finite > 0
+    assert math.isfinite(runs[0].cost)
+    assert torch.equal(runs[0].x, runs[1].x) and runs[0].history == runs[1].history
+    other = differential_evolution(problem.cost, problem.space, pop=16, generations=8, seed=4, progress=False)
+    assert not torch.equal(other.x, runs[0].x)
+
+
+def test_fit_that_ends_non_finite_names_the_parameter(dahl_data):
+    with pytest.raises(ValueError, match=r"dahl\.sigma0"):
+        identify(_dahl(), dahl_data, bounds={**BOUNDS, "dahl.sigma0": (1e8, 1e9)}, pop=8, generations=2,
+                 progress=False)
+
+
+def test_refinement_reduces_cost(dahl_data):
+    problem = _problem(dahl_data)
+    starts = torch.tensor([[1.5, 14.0, 0.3], [3.0, 6.0, 0.8], [1.0, 30.0, 1.5]])
+    c0 = problem.cost(starts)
+    grad = refine(problem.cost, problem.space, starts, adam_steps=20, lbfgs_steps=20, progress=False)
+    assert (grad.costs < c0).all() and grad.cost < 0.01 * float(c0.min())
+    lm = levenberg_marquardt(problem.residuals, problem.space, starts, iters=30, progress=False)
+    assert lm.cost < 1e-10 and _relative_error(problem.space, lm.x) < 1e-4
+
+
+def test_fisher_finds_the_sum_of_two_parallel_viscous_terms(float64):
+    model = Constitutive([Viscous(c=1.0), Viscous(c=2.0)]).double()  # keys viscous, viscous_2
+    t = np.linspace(0, 1, 101)
+    rec = Record(name="v", t=t, x=np.sin(2 * np.pi * t), y=np.zeros_like(t))
+    problem = RecordsProblem(SearchSpace(model), [rec], backend="reference")  # no compile for a one-off model
+    x = problem.space.initial()
+    J = output_jacobian(problem.predict, x, method="autograd")
+    assert torch.allclose(J, output_jacobian(problem.predict, x, method="fd"), rtol=1e-5, atol=1e-8)
+    lin = fisher_analysis(J, x, problem.space.names, sigma=0.1, log=torch.zeros(2, dtype=torch.bool))
+    assert lin.eigenvalues[1] < 1e-10 * lin.eigenvalues[0]
+    v = lin.eigenvectors[:, 0]
+    assert torch.allclose(v / v[0], torch.ones(2))  # identifiable: c1 + c2
+    assert lin.identifiable == ["+1·viscous.c +1·viscous_2.c"]
+    assert set(lin.non_identifiable) == {"viscous.c", "viscous_2.c"} and math.isinf(lin.sd["viscous.c"])
+    log = fisher_analysis(J, x, problem.space.names, sigma=0.1)  # log scale: direction ∝ ∇ log(c1 + c2) ∝ x
+    v = log.eigenvectors[:, 0]
+    assert torch.allclose(v / v[0], x / x[0])
+
+
+def test_fisher_sd_matches_known_linear_regression(float64):
+    J = torch.tensor([[1.0, 0.0], [1.0, 1.0], [1.0, 2.0], [1.0, 3.0]])
+    rep = fisher_analysis(J, torch.tensor([1.0, -2.0]), ["a", "b"], sigma=0.5, log=torch.zeros(2, dtype=torch.bool))
+    cov = 0.25 * torch.linalg.inv(J.T @ J)
+    assert rep.sd["a"] == pytest.approx(float(cov[0, 0].sqrt()))
+    assert rep.sd["b"] == pytest.approx(float(cov[1, 1].sqrt()))
+    assert rep.non_identifiable == []
+
+
+def test_joint_identification_linear_in_pressure(float64):
+    truth = _dahl(sigma0=10.0, c=0.5)
+    truth.effects["dahl"].params["Fc"] = _linear(1.0, 20.0)
+    pressures = [0.02, 0.05, 0.08]
+    data = _records(truth, [{"pressure_mpa": p} for p in pressures])
+    model = _dahl(sigma0=15.0, c=0.3)
+    model.effects["dahl"].params["Fc"] = _linear(1.5, 12.0)
+    res = identify(model, data, pop=24, generations=15, restarts=4, lm_steps=30, seed=0, progress=False,
+                   noise_sd=None, target=1e-14)
+    expected = {"dahl.Fc.c0": 1.0, "dahl.Fc.c1": 20.0, "dahl.sigma0": 10.0, "viscous.c": 0.5}
+    for name, value in expected.items():
+        assert res.x[name] == pytest.approx(value, rel=1e-2)
+    assert set(res.per_record) == {"r0", "r1", "r2"} and res.rmse < 1e-4
+    assert "pressure_mpa" in res.parameters["dahl"]["Fc"]["value"]
+
+
+def _linear(intercept, slope):
+    from hybridhyst.physics.parameters import Linear
+
+    return Linear(slope=slope, intercept=intercept).double()
+
+
+def test_cli_run_writes_summary(tmp_path):
+    overrides = [f"run_dir={tmp_path}", "progress=false", "data.mixtures=[1:3]", "data.pressures=[0.05]",
+                 "data.cycles=1", "data.samples_per_cycle=240", "identify.pop=8", "identify.generations=2",
+                 "identify.restarts=2", "identify.lm_steps=2", "identify.substeps=2"]
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose(config_name="identify", overrides=overrides)
+    summary = identify_cli.run(cfg)
+    saved = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("parameters", "rmse", "per_record", "wall_s", "identifiable"):
+        assert key in saved and key in summary
+    assert set(saved["per_record"]) == {"1:3_p0.05"} and saved["rmse"] > 0
+    assert saved["parameters"]["hysteresis"]["k"]["unit"] == "Nm/deg"
+    assert (tmp_path / "loops.png").stat().st_size > 0 and (tmp_path / "report.md").exists()
