@@ -41,7 +41,7 @@ def _kernel(name: str, args: list[str], targets: list[tuple[str, sp.Expr]], prin
     """A numba function assigning each ``target`` (e.g. ``f[0]``) its expression, with CSE."""
     exprs = [e for _, e in targets]
     subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("cse"), optimizations="basic")
-    lines = ["@njit(cache=True)", f"def {name}({', '.join(args)}):"]
+    lines = ["@njit(cache=True, inline='always', error_model='numpy')", f"def {name}({', '.join(args)}):"]
     lines += [f"    {s} = s[{i}]" for i, s in enumerate(eq.state)]
     lines += [f"    {p} = th[{i}]" for i, p in enumerate(eq.params)]
     lines += [f"    {sym} = {printer.doprint(val)}" for sym, val in subs]
@@ -124,37 +124,37 @@ import numpy as np
 from numba import njit, prange
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy')
 def _sign(x):
     return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy')
 def _abs_pow(z, n):
     a = abs(z)
     return a ** n if a > 0 else 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy')
 def _abs_pow_log(z, n):
     a = abs(z)
     return a ** n * math.log(a) if a > 0 else 0.0'''
 
-LOOPS = '''@njit(cache=True, parallel=PARALLEL)
+LOOPS = '''@njit(cache=True, parallel=PARALLEL, error_model='numpy')
 def forward(U, h, th, s0, c, A, bw, sub, states, y):
     """States at sample times and outputs; U (B,T,3), h (T-1,), th (B,P), s0 (B,S). Rows in parallel."""
     for b in prange(U.shape[0]):
         forward_row(b, U, h, th, s0, c, A, bw, sub, states, y)
 
 
-@njit(cache=True, parallel=PARALLEL)
+@njit(cache=True, parallel=PARALLEL, error_model='numpy')
 def backward(U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy. Rows in parallel."""
     for b in prange(U.shape[0]):
         backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always', error_model='numpy')
 def stage_state(st, K, j, hk, A, Y):
     """Y = st + hk * sum_l A[j, l] K[l] (the state at stage j)."""
     for i in range(S):
@@ -164,7 +164,7 @@ def stage_state(st, K, j, hk, A, Y):
         Y[i] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always', error_model='numpy')
 def stage_input(U, b, k, fr):
     """The input (u, du, ddu) a fraction ``fr`` into sample interval k (linear interpolation)."""
     return (U[b, k, 0] + (U[b, k + 1, 0] - U[b, k, 0]) * fr,
@@ -172,7 +172,7 @@ def stage_input(U, b, k, fr):
             U[b, k, 2] + (U[b, k + 1, 2] - U[b, k, 2]) * fr)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always', error_model='numpy')
 def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub):
     """Advance ``st`` in place by sub-step m of interval k."""
     for j in range(c.shape[0]):
@@ -186,7 +186,7 @@ def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub):
         st[i] += hk * acc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model='numpy')
 def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     T = U.shape[1]
     K = np.zeros((c.shape[0], S))
@@ -203,7 +203,7 @@ def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
         y[b, k, :] = g
 
 
-@njit(cache=True)
+@njit(cache=True, error_model='numpy')
 def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     T = U.shape[1]
     nst = c.shape[0]
