@@ -136,7 +136,10 @@ def test_every_model_config_instantiates_and_simulates(path, float64):
     cond = {"pressure_mpa": torch.tensor([0.05])}
     y = simulate(model, 0.1 * torch.sin(2 * math.pi * t)[None], t=t, conditions=cond)
     assert y.shape == (1, 50, model.output_dim) and torch.isfinite(y).all()
-    assert model.describe()  # every parameter has a value and a unit
+    described = model.describe()
+    for key, effect in model.effects.items():  # every parameter is described with a value and a rendered unit
+        assert set(described[key]) == set(effect.params)
+        assert all(d["value"] and d["unit"] for d in described[key].values())
 
 
 def test_records_input_returns_one_tensor_per_record(float64):

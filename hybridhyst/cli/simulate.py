@@ -62,7 +62,7 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     solver = cfg.solver
     with torch.no_grad():
         y = simulate(model, u[None], t=t, conditions=to_plain(cfg.conditions) or None, initial_state=initial,
-                     method=solver.method, substeps=int(solver.substeps))[0].cpu().numpy()
+                     method=solver.method, substeps=int(solver.substeps), backend=solver.backend)[0].cpu().numpy()
     frame = pd.DataFrame({"record": kind, "t": t, "u": u})
     for i, name in enumerate(_output_names(model)):
         frame[name] = y[:, i]
@@ -85,7 +85,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         raise ValueError(f"input.select {select} leaves no records to simulate")
     solver = cfg.solver
     with torch.no_grad():
-        preds = simulate(model, records, method=solver.method, substeps=int(solver.substeps))
+        preds = simulate(model, records, method=solver.method, substeps=int(solver.substeps), backend=solver.backend)
     frames, info = [], {}
     for r, p in zip(records, preds):
         y = p.cpu().numpy()

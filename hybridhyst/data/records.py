@@ -129,9 +129,10 @@ class Record:
         d = np.diff(self.t)
         return bool(len(d) == 0 or np.allclose(d, d[0], rtol=1e-6, atol=0))
 
-    def slice(self, start: int | None = None, stop: int | None = None, name: str | None = None) -> Record:
-        """Samples ``start:stop`` as a new record (same conditions and units)."""
-        sl = slice(start, stop)
+    def slice(self, start: int | None = None, stop: int | None = None, name: str | None = None,
+              step: int | None = None) -> Record:
+        """Samples ``start:stop:step`` as a new record (same conditions and units)."""
+        sl = slice(start, stop, step)
         return Record(
             name=name or self.name, t=self.t[sl], x=self.x[sl], y=self.y[sl], conditions=self.conditions,
             units=self.units, extra={k: v[sl] for k, v in self.extra.items()}, source=self.source,

@@ -64,11 +64,7 @@ def decimate(record: Record, factor: int) -> Record:
         raise ValueError(f"record {record.name!r}: decimation factor must be >= 1, got {factor}")
     if factor == 1:
         return record
-    sl = slice(None, None, factor)
-    return Record(
-        name=record.name, t=record.t[sl], x=record.x[sl], y=record.y[sl], conditions=record.conditions,
-        units=record.units, extra={k: v[sl] for k, v in record.extra.items()}, source=record.source,
-    )
+    return record.slice(step=factor)
 
 
 def _decimate_all(records: Sequence[Record], downsample: int | Mapping[str, int]) -> list[Record]:

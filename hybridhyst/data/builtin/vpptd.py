@@ -66,7 +66,8 @@ def _simulate(mixture: str, pressures: tuple[float, ...], n: int, samples_per_cy
     model = modified_bouc_wen(mixture).double()
     with torch.no_grad():
         y = simulate(model, torch.as_tensor(inputs), t=torch.as_tensor(t),
-                     conditions={"pressure_mpa": np.asarray(pressures)}, method="rk4", substeps=substeps)
+                     conditions={"pressure_mpa": np.asarray(pressures)}, method="rk4", substeps=substeps,
+                     backend="fast")
     torque = y[..., 0].numpy()
     if not np.isfinite(torque).all():
         step_ms = 1e3 / (frequency_hz * samples_per_cycle * substeps)
