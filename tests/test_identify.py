@@ -122,6 +122,18 @@ def test_refinement_reduces_cost(dahl_data):
     assert (grad.costs < c0).all() and grad.cost < 0.01 * float(c0.min())
     lm = levenberg_marquardt(problem.residuals, problem.space, starts, iters=30, progress=False)
     assert lm.cost < 1e-10 and _relative_error(problem.space, lm.x) < 1e-4
+    K, D = starts.shape
+    assert K * (D + 1) <= lm.evaluations <= K * (D + 1) * (len(lm.history))  # rows: Jacobians only on accepts
+
+
+def test_search_on_decimated_records_still_identifies(dahl_data):
+    """The global search may run on every 2nd sample; refinement and the reported cost use all samples."""
+    res = identify(_dahl(), dahl_data, method="de", bounds=BOUNDS, pop=16, generations=15, search_decimate=2,
+                   fisher=False, progress=False, seed=1)
+    problem = _problem(dahl_data)
+    x = torch.tensor([res.x[n] for n in problem.space.names])
+    assert res.cost == pytest.approx(float(problem.cost(x[None])[0]), rel=1e-9)  # scored on the full grid
+    assert _relative_error(problem.space, x) < 1e-3
 
 
 def test_fisher_finds_the_sum_of_two_parallel_viscous_terms(float64):

@@ -26,7 +26,8 @@ _EDGE = 1e-6  # start points are moved this far (unit-cube) inside the box, wher
 @dataclass
 class RefineResult:
     """Outcome of ``refine``: best point ``x (D,)`` and cost, every row's best ``X (K, D)`` and ``costs (K,)``,
-    the summed finite cost per step (``history``) and the number of batched evaluations."""
+    the summed finite cost per step (``history``) and ``evaluations``: batched calls for ``refine``, simulated
+    rows for ``levenberg_marquardt``."""
 
     x: torch.Tensor
     cost: float
@@ -140,16 +141,17 @@ def refine(loss_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts
                         evaluations=rows.evaluations)
 
 
-def _lm_eval(residual_rows, space: Box, W: torch.Tensor, h: float):
-    """Residuals at W ``(K, D)`` and forward-difference Jacobians w.r.t. the logits, one batched call."""
-    K, D = W.shape
-    E = torch.eye(D, dtype=W.dtype) * h
-    Wall = torch.cat([W[:, None, :], W[:, None, :] + E[None]], dim=1).reshape(K * (D + 1), D)
+def _lm_residuals(residual_rows, space: Box, W: torch.Tensor) -> torch.Tensor:
     with torch.no_grad():
-        R = residual_rows(space.from_unit(torch.sigmoid(Wall))).to(torch.float64).reshape(K, D + 1, -1)
-    r0 = R[:, 0]
-    J = (R[:, 1:] - r0[:, None]).transpose(1, 2) / h  # (K, M, D)
-    return r0, J
+        return residual_rows(space.from_unit(torch.sigmoid(W))).to(torch.float64)
+
+
+def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h: float) -> torch.Tensor:
+    """Forward-difference Jacobians ``(K, M, D)`` w.r.t. the logits at W ``(K, D)`` (residuals r0 known)."""
+    K, D = W.shape
+    Wall = (W[:, None, :] + torch.eye(D, dtype=W.dtype)[None] * h).reshape(K * D, D)
+    R = _lm_residuals(residual_rows, space, Wall).reshape(K, D, -1)
+    return (R - r0[:, None]).transpose(1, 2) / h
 
 
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
@@ -158,16 +160,17 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     """Batched Levenberg–Marquardt on the box logits: each row its own damping, one call per iteration.
 
     ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Jacobians are forward
-    differences (K (D + 1) simulated rows per iteration), so the step is robust in the ill-conditioned
+    differences (K rows per trial step, D more per accepted row), so the step is robust in the ill-conditioned
     valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order methods crawl.
     """
     starts = torch.as_tensor(starts, dtype=torch.float64).reshape(-1, space.dim)
     W = torch.logit(space.to_unit(starts).clamp(_EDGE, 1 - _EDGE))
     K, D = W.shape
     lam = torch.full((K,), 1e-3, dtype=torch.float64)
-    r, J = _lm_eval(residual_rows, space, W, h)
+    r = _lm_residuals(residual_rows, space, W)
+    J = _lm_jacobian(residual_rows, space, W, r, h)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
-    history, evals = [float(cost.min())], 1
+    history, evals = [float(cost.min())], K * (D + 1)
     with _progress(iters, "levenberg-marquardt", progress) as bar:
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
@@ -176,14 +179,15 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             g = (J.transpose(1, 2) @ r[..., None])[..., 0]
             A = JtJ + lam[:, None, None] * (torch.diag_embed(JtJ.diagonal(dim1=1, dim2=2)) + 1e-12 * torch.eye(D))
             step = torch.linalg.solve(A.nan_to_num(), -g.nan_to_num()[..., None])[..., 0]
-            r_new, J_new = _lm_eval(residual_rows, space, W + step, h)
-            evals += 1
+            r_new = _lm_residuals(residual_rows, space, W + step)
             new = r_new.square().mean(dim=1).nan_to_num(nan=math.inf)
             ok = new < cost
-            W = torch.where(ok[:, None], W + step, W)
-            r = torch.where(ok[:, None], r_new, r)
-            J = torch.where(ok[:, None, None], J_new, J)
-            cost = torch.where(ok, new, cost)
+            evals += K
+            if bool(ok.any()):  # Jacobians only where the step was accepted
+                W[ok] = W[ok] + step[ok]
+                r[ok], cost[ok] = r_new[ok], new[ok]
+                J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h)
+                evals += int(ok.sum()) * D
             lam = torch.where(ok, lam / 3, lam * 4).clamp(1e-12, 1e12)
             history.append(float(cost.min()))
             bar.update(1)

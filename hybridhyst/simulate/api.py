@@ -121,7 +121,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         method (default "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``. The input is
         linearly interpolated inside each sample interval, so for a driven model the scheme is second
         order in the sample interval whatever its own order; sub-steps refine the state, not the input.
-    return_states : also return the states ``(batch, time, state_dim)``.
+    return_states : also return the states ``(batch, time, state_dim)`` (with ``backend="fast"`` as
+        constants: no gradient flows through the returned states).
     backend : "reference" (the plain PyTorch loop) or "fast" (compiled numba loop with an exact discrete
         adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``.
     values : parameter values per batch row, ``{effect: {parameter: (batch,)}}`` as returned by
@@ -156,11 +157,12 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     if backend not in ("reference", "fast"):
         raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
     if backend == "fast":
-        if solver != "fixed" or return_states:
-            raise ValueError("backend='fast' runs the fixed-step solver and returns outputs only")
+        if solver != "fixed":
+            raise ValueError("backend='fast' runs the fixed-step solver only; use solver='fixed'")
         from .fast import simulate_fast
 
-        return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
+        return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
+                             return_states=return_states)
     if solver == "fixed":
         states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
     elif solver == "torchdiffeq":

@@ -47,10 +47,12 @@ class _FastSimulate(torch.autograd.Function):
         module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
         ctx.save_for_backward(theta, U, s0)
         ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module)
-        return torch.from_numpy(y).to(dtype=U.dtype, device=U.device)
+        S = torch.from_numpy(states).to(dtype=U.dtype, device=U.device)
+        ctx.mark_non_differentiable(S)
+        return torch.from_numpy(y).to(dtype=U.dtype, device=U.device), S
 
     @staticmethod
-    def backward(ctx, gy):
+    def backward(ctx, gy, _gs=None):
         theta, U, s0 = ctx.saved_tensors
         Un, hn, th, states, c, A, bw, sub, module = ctx.numpy
         gyn = gy.detach().to(torch.float64).cpu().numpy()
@@ -66,8 +68,12 @@ class _FastSimulate(torch.autograd.Function):
 
 
 def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, method: str = "rk4",
-                  substeps: int = 1) -> torch.Tensor:
-    """Outputs ``(batch, time, output_dim)`` of the compiled loop; differentiable like the reference."""
+                  substeps: int = 1, return_states: bool = False):
+    """Outputs ``(batch, time, output_dim)`` of the compiled loop; differentiable like the reference.
+
+    With ``return_states`` also the states ``(batch, time, state_dim)`` at the samples, as constants (no
+    gradient flows through them; gradients of the outputs are exact as always).
+    """
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
     eq, module = compiled(model)
@@ -75,4 +81,6 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
     theta = torch.stack([P[key][name].expand(B) for key, name in eq.param_keys], dim=1) if eq.param_keys \
         else U.new_zeros(B, 0)
     h = t[1:] - t[:-1]
-    return _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps), model.output_dim)
+    y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
+                                    model.output_dim)
+    return (y, states) if return_states else y
