@@ -215,6 +215,8 @@ def test_split_by_held_out_condition():
     assert (train.names, val.names, test.names) == (["r0", "r1", "r3"], ["r4"], ["r2"])
     both = records.split(held_out={"mixture": ["NBR"], "pressure_mpa": [0.02, 0.03]})
     assert both.test.names == ["r1"] and len(both.val) == 0
+    union = records.split(held_out=[{"pressure_mpa": 0.01}, {"mixture": "ABS", "pressure_mpa": 0.05}])
+    assert union.test.names == ["r0", "r4"]  # a list of queries: any of them
 
 
 def test_split_errors_name_the_condition():

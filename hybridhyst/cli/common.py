@@ -179,13 +179,23 @@ def torch_settings(dtype: str = "float64", threads: int | None = None, seed: int
 def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
     """Call ``run(cfg)``; a ``ValueError`` or a missing file becomes ``error: <message>`` and exit code 2.
 
-    ``HYBRIDHYST_TRACEBACK=1`` re-raises instead (for debugging).
+    ``HYBRIDHYST_TRACEBACK=1`` re-raises instead (for debugging). In a Hydra multirun the exception is
+    re-raised after the message: Hydra marks that job failed, runs the others and fails the sweep at the
+    end (``sys.exit`` inside a job would stop the whole sweep).
     """
     try:
         return run(cfg)
     except (ValueError, FileNotFoundError) as exc:
-        if os.environ.get("HYBRIDHYST_TRACEBACK"):
-            raise
         message = " ".join(str(exc).split()) or type(exc).__name__
+        if os.environ.get("HYBRIDHYST_TRACEBACK") or _multirun():
+            print(f"error: {message}", file=sys.stderr, flush=True)
+            raise
         print(f"error: {message}", file=sys.stderr, flush=True)
         sys.exit(2)
+
+
+def _multirun() -> bool:
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN

@@ -2,8 +2,9 @@
 
 Default (``conf/identify.yaml``): seed 001's modified Bouc–Wen law with constant parameters identified from
 the synthetic 1:3 loop at p = 0.05 MPa with 0.2 Nm noise. Writes ``summary.json`` (parameters with units,
-RMSE overall and per record, identifiable combinations, uncertainty, wall time), ``loops.png``,
-``report.md`` and ``config.yaml`` into the run directory (``hydra.run.dir=...``).
+RMSE overall and per record, identifiable combinations, uncertainty, wall time), ``model.pt`` (the fitted
+model's state dict), ``loops.png``, ``report.md`` and ``config.yaml`` into the run directory
+(``hydra.run.dir=...``).
 """
 
 from __future__ import annotations
@@ -155,6 +156,8 @@ def run(cfg: DictConfig) -> dict:
                              substeps=int(cfg.identify.substeps))
         summary = _summary(cfg, model, result, records)
     write_loops(run_dir / "loops.png", list(records), preds, int(cfg.report.max_figures))
+    # the fitted nominal's state dict: hybridhyst-train can start a hybrid from it (nominal_state=<run dir>)
+    atomic_write(run_dir / "model.pt", lambda p: torch.save(model.state_dict(), p))
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)

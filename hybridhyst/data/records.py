@@ -222,8 +222,9 @@ class RecordSet:
 
         Parameters
         ----------
-        held_out : ``{condition: [values]}`` or callable ``(record) -> bool``: the test records (the
-            conditions the model must generalise to), e.g. ``{"amplitude_in": [1.0]}``.
+        held_out : ``{condition: [values]}``, a list of such (a record matching any is held out) or a
+            callable ``(record) -> bool``: the test records (the conditions the model must generalise to),
+            e.g. ``{"amplitude_in": [1.0]}``.
         val : the same kind of query for validation records, chosen among those not held out.
 
         Returns

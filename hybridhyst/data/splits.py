@@ -5,7 +5,9 @@ A condition query is either
 * a mapping ``{condition: value or [values]}``: a record matches when, for every condition, its value
   equals one of the listed values (numbers compare with a relative tolerance of 1e-9, so 0.1 + 0.2
   matches 0.3); or
-* a callable ``query(record) -> bool``.
+* a callable ``query(record) -> bool``; or
+* a list of mappings: a record matches when it matches any of them (e.g. hold out the 1.5 in tests
+  *and* the earthquake records: ``[{"amplitude_in": 1.5, "kind": "characterisation"}, {"kind": "earthquake"}]``).
 
 Every listed value must match at least one record of the set: a held-out value that matches nothing is
 almost always a typo, and silently holding out nothing would make a test split meaningless.
@@ -82,8 +84,14 @@ def condition_mask(records: Sequence, query: Query | None, what: str, set_name: 
         return np.zeros(n, dtype=bool)
     if callable(query):
         return np.array([bool(query(r)) for r in records], dtype=bool)
+    if isinstance(query, (list, tuple)) and query and all(isinstance(q, Mapping) for q in query):
+        mask = np.zeros(n, dtype=bool)
+        for q in query:
+            mask |= condition_mask(records, q, what, set_name)
+        return mask
     if not isinstance(query, Mapping):
-        raise TypeError(f"{what} conditions must be a mapping {{condition: values}} or a callable, got {query!r}")
+        raise TypeError(f"{what} conditions must be a mapping {{condition: values}}, a list of mappings or a "
+                        f"callable, got {query!r}")
     mask = np.ones(n, dtype=bool)
     names = sorted({k for r in records for k in r.conditions})
     for key, value in query.items():

@@ -1,0 +1,213 @@
+"""PNG figures of the comparison report (matplotlib, Agg backend, ≤ 8×5 in at 100 dpi).
+
+Every function returns the written path, or None when there is nothing to draw (no predictions, no
+sweep); the caller then leaves the figure out of the report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..cli.common import atomic_write
+from .tables import configuration_labels
+
+__all__ = ["data_efficiency_figure", "error_per_condition_figure", "lambda_figure", "loops_figure", "sweeps"]
+
+DPI = 100
+_PREDICTION_COLUMNS = ["record", "split", "condition", "x", "y", "y_pred"]
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
+    """Write ``fig`` as PNG atomically and close it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, lambda p: fig.savefig(p, format="png", dpi=DPI))
+    _pyplot().close(fig)
+    return path
+
+
+def _ylabel(unit: str | None) -> str:
+    return f"test RMSE [{unit}]" if unit else "test RMSE"
+
+
+def _test_predictions(path: str, notes: list[str]) -> pd.DataFrame | None:
+    """The test split of one ``predictions.parquet``; a file that cannot be read adds a note instead."""
+    try:
+        frame = pd.read_parquet(path, columns=_PREDICTION_COLUMNS)
+    except Exception as exc:  # any reader error (pyarrow, missing column) is reported, never fatal
+        notes.append(f"`{path}` could not be read ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})")
+        return None
+    frame = frame[frame["split"] == "test"]
+    return frame.assign(condition=frame["condition"].astype(str))
+
+
+def _best_runs(runs: pd.DataFrame, summary: pd.DataFrame, limit: int) -> list[tuple[str, str]]:
+    """(configuration label, predictions path) of the lowest-test-RMSE seed of the best ``limit``
+    configurations that have predictions, in summary order."""
+    with_predictions = runs[(runs["status"] == "ok") & runs["predictions"].notna()]
+    best = with_predictions.loc[with_predictions.groupby("config")["test_rmse"].idxmin()]
+    path = dict(zip(best["config"], best["predictions"]))
+    chosen = [(label, path[key]) for label, key in zip(summary["configuration"], summary["config"]) if key in path]
+    return chosen[:limit]
+
+
+def _legend_below(fig, handles: list, labels: list[str]) -> None:
+    """One legend for the whole figure, below the panels."""
+    ncol = min(len(labels), 3)
+    rows = math.ceil(len(labels) / max(ncol, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, min(0.07 * rows, 0.35), 1, 1))
+
+
+def loops_figure(runs: pd.DataFrame, summary: pd.DataFrame, conditions: list[str], path: Path,
+                 notes: list[str], max_conditions: int = 6, max_configurations: int = 6) -> Path | None:
+    """Measured response y vs excitation x and the prediction of the best seed of the best
+    configurations, one panel per held-out condition (at most ``max_conditions``).
+
+    ``notes`` receives one line per ``predictions.parquet`` that could not be read.
+    """
+    frames = [(label, _test_predictions(p, notes)) for label, p in _best_runs(runs, summary, max_configurations)]
+    frames = [(label, f) for label, f in frames if f is not None and not f.empty]
+    present = {c for _, f in frames for c in f["condition"].unique()}
+    shown = [c for c in conditions if c in present][:max_conditions]
+    if not shown:
+        return None
+    plt = _pyplot()
+    cols = min(len(shown), 3)
+    rows = math.ceil(len(shown) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(min(8.0, 2.9 * cols), min(5.0, 2.2 * rows + 1.0)), dpi=DPI,
+                             squeeze=False)
+    colors = {label: f"C{i % 10}" for i, label in enumerate(summary["configuration"])}
+    handles: dict[str, object] = {}
+    for ax, condition in zip(axes.flat, shown):
+        measured = next(f for _, f in frames if condition in set(f["condition"]))
+        for _, rec in measured[measured["condition"] == condition].groupby("record", sort=False):
+            handles["measured"], = ax.plot(rec["x"], rec["y"], color="0.55", lw=1.2)
+        for label, frame in frames:
+            for _, rec in frame[frame["condition"] == condition].groupby("record", sort=False):
+                handles[label], = ax.plot(rec["x"], rec["y_pred"], color=colors[label], lw=0.8)
+        ax.set_title(condition, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(shown):]:
+        ax.set_visible(False)
+    unit = _first_unit(runs)
+    for i, ax in enumerate(list(axes.flat)[:len(shown)]):
+        if i + cols >= len(shown):  # lowest panel of its column
+            ax.set_xlabel(f"x [{unit['x']}]" if unit.get("x") else "x", fontsize=8)
+        if i % cols == 0:
+            ax.set_ylabel(f"y [{unit['F']}]" if unit.get("F") else "y", fontsize=8)
+    _legend_below(fig, list(handles.values()), list(handles))
+    return _save(fig, path)
+
+
+def _first_unit(runs: pd.DataFrame) -> dict[str, str]:
+    """The units {quantity: unit} of the first successful run that states them."""
+    ok = runs[runs["status"] == "ok"]
+    return {q: next(iter(ok[f"unit_{q}"].dropna()), None) for q in ("x", "F")}
+
+
+def error_per_condition_figure(stats: pd.DataFrame, summary: pd.DataFrame, unit: str | None, path: Path,
+                               max_configurations: int = 8) -> Path | None:
+    """Grouped bars of the mean test RMSE per held-out condition (error bar: std over seeds), one bar
+    per configuration (the best ``max_configurations``)."""
+    if stats.empty:
+        return None
+    labels = [c for c in summary["configuration"] if c in set(stats["configuration"])][:max_configurations]
+    conditions = list(dict.fromkeys(stats["condition"]))
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8.0, 4.5), dpi=DPI)
+    width = 0.8 / len(labels)
+    centres = np.arange(len(conditions))
+    colors = {label: f"C{i % 10}" for i, label in enumerate(summary["configuration"])}
+    for i, label in enumerate(labels):
+        rows = stats[stats["configuration"] == label].set_index("condition").reindex(conditions)
+        ax.bar(centres - 0.4 + (i + 0.5) * width, rows["rmse_mean"], width,
+               yerr=rows["rmse_std"].fillna(0.0), capsize=2, color=colors[label], label=label,
+               error_kw={"lw": 0.8})
+    ax.set_xticks(centres, conditions, rotation=20 if len(conditions) > 3 else 0, ha="right", fontsize=8)
+    ax.set_ylabel(_ylabel(unit))
+    ax.set_xlabel("held-out condition")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2 if len(labels) > 4 else 1)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def sweeps(summary: pd.DataFrame, field: str) -> list[tuple[str, pd.DataFrame]]:
+    """Groups of configurations equal in every setting except ``field``, with ≥ 2 values of it.
+
+    Returns (label, summary rows sorted by ``field``) per sweep, in summary order; the label names the
+    configuration without the swept setting.
+    """
+    groups: dict[str, list[int]] = {}
+    for i, key in enumerate(summary["config"]):
+        config = json.loads(key)
+        if config.pop(field, None) is not None:
+            groups.setdefault(json.dumps(config, sort_keys=True), []).append(i)
+    found = [(key, summary.iloc[rows].sort_values(field)) for key, rows in groups.items()]
+    found = [(key, rows) for key, rows in found if rows[field].nunique() > 1]
+    labels = configuration_labels([json.loads(key) for key, _ in found])
+    return [(label, rows) for label, (_, rows) in zip(labels, found)]
+
+
+def _errorbar(ax, x, rows: pd.DataFrame, label: str, color: str) -> None:
+    ax.errorbar(x, rows["test_rmse_mean"], yerr=rows["test_rmse_std"].fillna(0.0), marker="o", ms=4,
+                capsize=3, lw=1.0, color=color, label=label)
+
+
+def lambda_figure(summary: pd.DataFrame, unit: str | None, path: Path, max_sweeps: int = 6) -> Path | None:
+    """Mean ± std test RMSE vs the physics-loss weight λ_phys on a log axis; λ = 0 is drawn at the left
+    edge (a decade below the smallest positive λ) and labelled "0". None when no λ sweep exists."""
+    found = sweeps(summary, "lambda_phys")[:max_sweeps]
+    if not found:
+        return None
+    values = sorted({float(v) for _, rows in found for v in rows["lambda_phys"]})
+    positive = [v for v in values if v > 0]
+    zero_at = positive[0] / 10.0 if positive else 1.0
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 4.2), dpi=DPI)
+    for i, (label, rows) in enumerate(found):
+        x = np.where(rows["lambda_phys"] > 0, rows["lambda_phys"], zero_at)
+        _errorbar(ax, x, rows, label, f"C{i % 10}")
+    ax.set_xscale("log")
+    ax.set_xticks([v if v > 0 else zero_at for v in values], [f"{v:.4g}" for v in values],
+                  fontsize=8, rotation=30 if len(values) > 6 else 0)
+    ax.minorticks_off()
+    ax.set_xlabel("λ_phys (λ = 0 at the left edge)")
+    ax.set_ylabel(_ylabel(unit))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def data_efficiency_figure(summary: pd.DataFrame, unit: str | None, path: Path, max_sweeps: int = 6) -> Path | None:
+    """Mean ± std test RMSE vs the fraction of the training data used, one line per configuration.
+    None when no configuration was run at two or more training fractions."""
+    found = sweeps(summary, "train_fraction")[:max_sweeps]
+    if not found:
+        return None
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 4.2), dpi=DPI)
+    for i, (label, rows) in enumerate(found):
+        _errorbar(ax, rows["train_fraction"], rows, label, f"C{i % 10}")
+    ax.set_xlabel("training fraction")
+    ax.set_ylabel(_ylabel(unit))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -1,0 +1,70 @@
+"""Predictions on whole records and metrics per split and per operating condition (physical units)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import torch
+
+from ..analysis.metrics import mae, nrmse, rmse
+
+__all__ = ["predict_split", "split_metrics", "predictions_frame"]
+
+
+def predict_split(module, dm, split: str) -> list[dict]:
+    """Whole-record predictions of ``split`` ("train", "val" or "test"): one dict per record with its name,
+    condition label, t, x, y (measured), y_pred and y_nominal (None without a nominal model)."""
+    if not len(dm.records(split)):
+        return []
+    was_training = module.training
+    module.eval()
+    out = []
+    try:
+        with torch.no_grad():
+            for i, (rec, label) in enumerate(zip(dm.records(split), dm.labels(split))):
+                batch = {k: v[None] for k, v in dm.whole(split)[i].items()}
+                batch = {k: v.to(module.device) for k, v in batch.items()}
+                res = module(batch)
+                nominal = res.get("nominal")
+                out.append({"record": rec.name, "condition": label, "split": split,
+                            "t": batch["t"][0].cpu().numpy(), "x": batch["u"][0].cpu().numpy(),
+                            "y": batch["y"][0].cpu().numpy(), "y_pred": res["y"][0].cpu().numpy(),
+                            "y_nominal": None if nominal is None else nominal[0].cpu().numpy()})
+    finally:
+        module.train(was_training)
+    return out
+
+
+def _metrics(pred: np.ndarray, y: np.ndarray) -> dict:
+    finite = bool(np.isfinite(pred).all())
+    if not finite:
+        return {"rmse": math.inf, "mae": math.inf, "nrmse": math.inf, "n": int(y.size)}
+    return {"rmse": rmse(pred, y), "mae": mae(pred, y), "nrmse": nrmse(pred, y), "n": int(y.size)}
+
+
+def split_metrics(preds: list[dict]) -> dict:
+    """Pooled metrics over every sample of the split, and per condition label (records pooled)."""
+    if not preds:
+        return {}
+    out = _metrics(np.concatenate([p["y_pred"] for p in preds]), np.concatenate([p["y"] for p in preds]))
+    per: dict[str, dict] = {}
+    for label in dict.fromkeys(p["condition"] for p in preds):
+        sel = [p for p in preds if p["condition"] == label]
+        per[label] = _metrics(np.concatenate([p["y_pred"] for p in sel]), np.concatenate([p["y"] for p in sel]))
+    out["per_condition"] = per
+    return out
+
+
+def predictions_frame(preds: list[dict]) -> pd.DataFrame:
+    """Long table of predictions: record, split, condition, t, x, y, y_pred, y_nominal (NaN if none)."""
+    frames = []
+    for p in preds:
+        n = len(p["t"])
+        frames.append(pd.DataFrame({
+            "record": p["record"], "split": p["split"], "condition": p["condition"], "t": p["t"], "x": p["x"],
+            "y": p["y"], "y_pred": p["y_pred"],
+            "y_nominal": np.full(n, np.nan) if p["y_nominal"] is None else p["y_nominal"]}))
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(
+        columns=["record", "split", "condition", "t", "x", "y", "y_pred", "y_nominal"])
