@@ -9,7 +9,6 @@ and ``config.yaml`` into the run directory (``hydra.run.dir=...``).
 from __future__ import annotations
 
 import math
-import numbers
 import time
 
 import hydra
@@ -18,6 +17,7 @@ import pandas as pd
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from ..data.datamodule import decimation_factors
 from ..identify.gradient import decimate, fit_gradient
 from ..simulate import simulate
 from .common import (
@@ -52,20 +52,6 @@ def load_split(data_cfg: DictConfig, split_cfg: DictConfig):
     held_out = to_plain(split_cfg.get("held_out"))
     train, _, test = records.split(held_out=held_out)
     return train, test
-
-
-def decimation_factors(records, samples_per_cycle: int | None, downsample: int,
-                       frequency: str = "frequency_hz") -> dict[str, int]:
-    """Per-record decimation: about ``samples_per_cycle`` samples per loading cycle when the record has a
-    positive ``frequency`` condition (slow tests thin out more), else every ``downsample``-th sample."""
-    out = {}
-    for r in records:
-        f = r.conditions.get(frequency)
-        if samples_per_cycle and isinstance(f, numbers.Number) and f > 0:
-            out[r.name] = max(1, round(1.0 / (r.dt * f * samples_per_cycle)))
-        else:
-            out[r.name] = max(1, int(downsample))
-    return out
 
 
 def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
