@@ -62,7 +62,8 @@ def _identify(model, records, cfg):
                     bounds={k: tuple(v) for k, v in (opts.get("bounds") or {}).items()},
                     box_factor=float(opts["box_factor"]), noise_sd=noise or None, target=opts.get("target"),
                     seed=int(cfg.seed), fisher=bool(opts["fisher"]), jacobian=opts["jacobian"],
-                    progress=bool(cfg.progress), ode_method=opts["ode_method"], substeps=int(opts["substeps"]))
+                    progress=bool(cfg.progress), ode_method=opts["ode_method"], substeps=int(opts["substeps"]),
+                    search_decimate=int(opts.get("search_decimate", 1)))
 
 
 def write_loops(path: Path, records, predictions, limit: int) -> Path:

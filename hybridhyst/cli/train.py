@@ -112,6 +112,7 @@ def info(cfg: DictConfig) -> dict:
             "hidden": parse_hidden(cfg.residual.hidden) if uses_net else None,
             "lambda_phys": float(cfg.loss.lambda_phys) if kind in ("hybrid", "std_pinn") else 0.0,
             "seed": int(cfg.seed), "train_fraction": float(cfg.datamodule.train_fraction),
+            "conditions": ",".join(cfg.datamodule.conditions),
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
             "experiment": cfg.get("experiment_name")}
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,13 @@ __all__ = ["data_efficiency_figure", "error_per_condition_figure", "lambda_figur
 DPI = 100
 _PREDICTION_COLUMNS = ["record", "split", "condition", "x", "y", "y_pred"]
 
+
+
+def _short(condition) -> str:
+    """A tick label: the condition's values only ("kind=earthquake, amplitude_in=0.585" -> "earthquake,
+    0.585"), wrapped to short lines."""
+    values = ", ".join(part.split("=", 1)[-1] for part in str(condition).split(", "))
+    return textwrap.fill(values, 16)
 
 def _pyplot():
     import matplotlib
@@ -99,7 +107,7 @@ def loops_figure(runs: pd.DataFrame, summary: pd.DataFrame, conditions: list[str
         for label, frame in frames:
             for _, rec in frame[frame["condition"] == condition].groupby("record", sort=False):
                 handles[label], = ax.plot(rec["x"], rec["y_pred"], color=colors[label], lw=0.8)
-        ax.set_title(condition, fontsize=8)
+        ax.set_title(textwrap.fill(str(condition), 38), fontsize=6.5)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     for ax in list(axes.flat)[len(shown):]:
@@ -138,7 +146,7 @@ def error_per_condition_figure(stats: pd.DataFrame, summary: pd.DataFrame, unit:
         ax.bar(centres - 0.4 + (i + 0.5) * width, rows["rmse_mean"], width,
                yerr=rows["rmse_std"].fillna(0.0), capsize=2, color=colors[label], label=label,
                error_kw={"lw": 0.8})
-    ax.set_xticks(centres, conditions, rotation=20 if len(conditions) > 3 else 0, ha="right", fontsize=8)
+    ax.set_xticks(centres, [_short(c) for c in conditions], fontsize=6.5)
     ax.set_ylabel(_ylabel(unit))
     ax.set_xlabel("held-out condition")
     ax.grid(axis="y", alpha=0.3)
