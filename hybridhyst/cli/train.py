@@ -107,7 +107,8 @@ def info(cfg: DictConfig) -> dict:
     kind = cfg.module
     uses_net = kind != "physics"
     name = f"hybrid-{cfg.residual.kind}" if kind == "hybrid" else DISPLAY.get(kind, kind)
-    model = cfg.model.get("_target_", "").rsplit(".", 1)[-1] if kind in ("physics", "hybrid", "std_pinn") else None
+    model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
+        if kind in ("physics", "hybrid", "std_pinn") else None
     return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,
             "hidden": parse_hidden(cfg.residual.hidden) if uses_net else None,
             "lambda_phys": float(cfg.loss.lambda_phys) if kind in ("hybrid", "std_pinn") else 0.0,

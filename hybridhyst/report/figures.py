@@ -195,12 +195,7 @@ def lambda_figure(summary: pd.DataFrame, unit: str | None, path: Path, max_sweep
     ax.set_xticks([v if v > 0 else zero_at for v in values], [f"{v:.4g}" for v in values],
                   fontsize=8, rotation=30 if len(values) > 6 else 0)
     ax.minorticks_off()
-    ax.set_xlabel("λ_phys (λ = 0 at the left edge)")
-    ax.set_ylabel(_ylabel(unit))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish_curve(fig, ax, "λ_phys (λ = 0 at the left edge)", unit, path)
 
 
 def data_efficiency_figure(summary: pd.DataFrame, unit: str | None, path: Path, max_sweeps: int = 6) -> Path | None:
@@ -213,7 +208,12 @@ def data_efficiency_figure(summary: pd.DataFrame, unit: str | None, path: Path, 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), dpi=DPI)
     for i, (label, rows) in enumerate(found):
         _errorbar(ax, rows["train_fraction"], rows, label, f"C{i % 10}")
-    ax.set_xlabel("training fraction")
+    return _finish_curve(fig, ax, "training fraction", unit, path)
+
+
+def _finish_curve(fig, ax, xlabel: str, unit: str | None, path: Path) -> Path:
+    """Labels, grid and legend of a test-RMSE curve; saves the figure."""
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(_ylabel(unit))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
