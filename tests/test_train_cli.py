@@ -48,11 +48,20 @@ def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
             assert train.build_trainer(cfg, tmp_path).max_epochs == cfg.trainer.max_epochs
         elif group in ("trainer",):
             assert cfg.trainer.accelerator == "gpu"  # gpu/ddp: composed only (CI has no GPU)
-        elif group in ("baseline", "experiment", "loss"):
-            assert cfg.module in train.MODULES
+        elif group == "data" and option != "table":  # table needs data.path (tested in test_data.py)
+            assert len(hydra_instantiate(cfg.data, _convert_="all")) > 0
+        elif group in ("baseline", "loss"):  # the module each builds, on the smoke data
+            small = _compose([*SMOKE, f"{group}={option}", f"run_dir={tmp_path}"])
+            dm = train.build_datamodule(small)
+            assert train.build_module(small, dm).kind == small.module
     if group == "experiment":
-        for option in _options(group):  # every experiment's data and split are consistent
-            dm = train.build_datamodule(_compose([f"experiment={option}"]))
+        for option in _options(group):  # every training experiment's data and split are consistent
+            cfg = _compose([f"experiment={option}"])
+            if cfg.app != "train":
+                with pytest.raises(ValueError, match=f"is for hybridhyst-{cfg.app}, not hybridhyst-train"):
+                    train.run(cfg)
+                continue
+            dm = train.build_datamodule(cfg)
             assert len(dm.records("train")) and len(dm.records("test"))
 
 
@@ -79,13 +88,19 @@ def test_run_writes_the_run_directory(baseline, tmp_path):
     assert result["info"]["n_parameters"] > 0
 
 
-def test_same_seed_same_metrics_and_resume_from_checkpoint(tmp_path):
+def test_same_seed_same_metrics_and_a_resumed_run_equals_an_uninterrupted_one(tmp_path):
     a = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'a'}"]))
     b = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'b'}"]))
     assert a["test"]["rmse"] == b["test"]["rmse"] and a["train"]["rmse"] == b["train"]["rmse"]
+    straight = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 's'}", "trainer.max_epochs=3"]))
     ckpt = tmp_path / "a" / "checkpoints" / "last.ckpt"
-    c = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'c'}", f"ckpt_path={ckpt}", "trainer.max_epochs=3"]))
-    assert c["info"]["epochs"] == 3 and math.isfinite(c["test"]["rmse"])
+    resumed = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'c'}", f"ckpt_path={ckpt}", "trainer.max_epochs=3"]))
+    assert resumed["info"]["epochs"] == straight["info"]["epochs"] == 3
+    assert resumed["test"]["rmse"] == pytest.approx(straight["test"]["rmse"], rel=1e-9)
+    for key, entry in straight["physics"].items():
+        assert resumed["physics"][key]["value"] == pytest.approx(entry["value"], rel=1e-9)
+    history = (tmp_path / "c" / "parameters.csv").read_text().splitlines()
+    assert len(history) == 1 + 3  # header + epochs 0, 1, 2: the history travels with the checkpoint
 
 
 def test_bad_input_fails_with_a_clear_error_and_a_failed_metrics_file(tmp_path):

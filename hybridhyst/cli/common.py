@@ -176,6 +176,13 @@ def torch_settings(dtype: str = "float64", threads: int | None = None, seed: int
         torch.set_num_threads(old_threads)
 
 
+def check_app(cfg: DictConfig, app: str) -> None:
+    """Experiment configs say which app they belong to (``app:``); refuse one meant for another app."""
+    if cfg.get("app", app) != app:
+        raise ValueError(f"this configuration (experiment {cfg.get('experiment_name') or ''!s}) is for "
+                         f"hybridhyst-{cfg.app}, not hybridhyst-{app}")
+
+
 def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
     """Call ``run(cfg)``; a ``ValueError`` or a missing file becomes ``error: <message>`` and exit code 2.
 

@@ -23,6 +23,7 @@ from ..simulate import simulate
 from .common import (
     CONF_DIR,
     atomic_write,
+    check_app,
     guarded,
     instantiate,
     parameter_table,
@@ -136,6 +137,7 @@ def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_fact
 
 def run(cfg: DictConfig) -> dict:
     """Fit, evaluate, and write the run directory; returns the summary dict (also ``summary.json``)."""
+    check_app(cfg, "fit")
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):

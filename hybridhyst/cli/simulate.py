@@ -21,6 +21,7 @@ from ..simulate import simulate
 from .common import (
     CONF_DIR,
     atomic_write,
+    check_app,
     guarded,
     instantiate,
     prepare_run_dir,
@@ -122,6 +123,7 @@ STUDIES = {"seed001_free_vibration": _seed001_free_vibration}
 
 def run(cfg: DictConfig) -> dict:
     """Simulate (or run ``cfg.study``) and write ``summary.json`` (+ ``predictions.csv``) in the run dir."""
+    check_app(cfg, "simulate")
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
     study = cfg.get("study")

@@ -27,7 +27,17 @@ from ..data.datamodule import RecordDataModule
 from ..nets import parse_hidden
 from ..training import MODULES, LoopFigures, predict_split, predictions_frame, split_metrics
 from ..training.modules import load_nominal_state
-from .common import CONF_DIR, atomic_write, guarded, instantiate, prepare_run_dir, to_plain, torch_settings, write_json
+from .common import (
+    CONF_DIR,
+    atomic_write,
+    check_app,
+    guarded,
+    instantiate,
+    prepare_run_dir,
+    to_plain,
+    torch_settings,
+    write_json,
+)
 
 __all__ = ["build_datamodule", "build_module", "build_trainer", "main", "run"]
 
@@ -54,7 +64,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule):
     loss, net = cfg.loss, cfg.residual
     common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names, "units": dm.units,
               "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
-              "nominal_lr": cfg.trainer.get("nominal_lr"),
+              "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
               "lambda_phys": float(loss.lambda_phys)}
     sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
     if kind in ("physics", "hybrid", "std_pinn"):
@@ -78,7 +88,9 @@ def build_trainer(cfg: DictConfig, run_dir: Path) -> L.Trainer:
     from lightning.pytorch.callbacks import ModelCheckpoint
 
     t = cfg.trainer
-    callbacks = [ModelCheckpoint(dirpath=run_dir / "checkpoints", monitor="val/rmse", mode="min", save_last=True,
+    # resuming keeps writing into the checkpoint's own folder, so the best score so far carries over
+    ckpt_dir = Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else run_dir / "checkpoints"
+    callbacks = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=True,
                                  filename="best", save_top_k=1)]
     logger = False
     if cfg.logger.kind == "tensorboard":
@@ -120,6 +132,7 @@ def info(cfg: DictConfig) -> dict:
 
 def run(cfg: DictConfig) -> dict:
     """Train, evaluate every split on whole records, write the run directory; returns ``metrics.json``."""
+    check_app(cfg, "train")
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
     meta = info(cfg)
@@ -145,6 +158,8 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         if best and cfg.evaluate_best:
             module.load_state_dict(torch.load(best, map_location="cpu", weights_only=False)["state_dict"])
         preds = {s: predict_split(module, dm, s) for s in ("train", "val", "test")}
+    if not trainer.is_global_zero:  # DDP: one process writes the run directory
+        return {}
     metrics = {s: split_metrics(p) for s, p in preds.items()}
     meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=int(trainer.current_epoch),
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},

@@ -8,11 +8,11 @@ training records only (seed 003, Sec. 3.2). Validation, test and prediction load
 one per batch, so every metric is computed on complete loops in physical units.
 
 A batch is a dict of tensors, ``(batch, time)`` unless noted:
-``t`` [s] (time since the record's start), ``u``, ``du``, ``ddu`` (excitation x and its rates from
-second-order differences, as ``simulate`` computes them), ``y`` (measured response), ``mask`` (1 where the
-loss counts), ``cond`` ``(batch, n_conditions)`` (the numeric conditions in ``condition_names``), ``y0``
-``(batch, 2)`` (measured response and its rate at the window start) and ``index`` ``(batch,)`` (record
-number within the split).
+``t`` [s] (time since the record's start), ``u``, ``du``, ``ddu``, ``dddu`` (excitation x and its first
+three rates from second-order differences, as ``simulate`` computes the first two), ``y`` (measured
+response), ``mask`` (1 where the loss counts), ``cond`` ``(batch, n_conditions)`` (the numeric
+conditions in ``condition_names``), ``y0`` ``(batch, 2)`` (measured response and its rate at the window
+start), ``index`` ``(batch,)`` (record number within the split) and ``start`` (first sample).
 """
 
 from __future__ import annotations
@@ -56,14 +56,15 @@ def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
 
 
 def prepare_record(record: Record, factor: int = 1) -> dict[str, np.ndarray]:
-    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu and y as float64."""
+    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64)."""
     r = record.slice(step=factor) if factor > 1 else record
     r.require_samples(3, "training (after decimation)")
     t = np.asarray(r.t, dtype=np.float64) - float(r.t[0])
     u = np.asarray(r.x, dtype=np.float64)
     du = np.gradient(u, t, edge_order=2)
     ddu = np.gradient(du, t, edge_order=2)
-    return {"t": t, "u": u, "du": du, "ddu": ddu, "y": np.asarray(r.y, dtype=np.float64)}
+    dddu = np.gradient(ddu, t, edge_order=2)
+    return {"t": t, "u": u, "du": du, "ddu": ddu, "dddu": dddu, "y": np.asarray(r.y, dtype=np.float64)}
 
 
 @dataclass
@@ -127,7 +128,7 @@ class _Sequences(Dataset):
         i, s = self.items[k]
         p = self.prepared[i]
         e = len(p["t"]) if self.window is None else s + self.window
-        item = {key: torch.as_tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "y")}
+        item = {key: torch.as_tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y")}
         mask = torch.ones(e - s, dtype=torch.float64)
         if self.window is not None and s > 0:
             mask[: self.warmup] = 0.0  # the state starts from rest: its first samples are not scored
@@ -136,6 +137,24 @@ class _Sequences(Dataset):
                     y0=torch.tensor([p["y"][s], dy], dtype=torch.float64), index=torch.tensor(i),
                     start=torch.tensor(s))
         return item
+
+
+class EpochShuffle(torch.utils.data.Sampler):
+    """A random order that depends only on (seed, epoch): Lightning calls ``set_epoch`` before each epoch, so
+    a run resumed from a checkpoint sees the same batches as an uninterrupted one."""
+
+    def __init__(self, n: int, seed: int = 0):
+        self.n, self.seed, self.epoch = int(n), int(seed), 0
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = int(epoch)
+
+    def __iter__(self):
+        g = torch.Generator().manual_seed(self.seed * 1_000_003 + self.epoch)
+        return iter(torch.randperm(self.n, generator=g).tolist())
+
+    def __len__(self) -> int:
+        return self.n
 
 
 class RecordDataModule(L.LightningDataModule):
@@ -152,7 +171,8 @@ class RecordDataModule(L.LightningDataModule):
     stride : step between window starts (default ``window // 2``).
     samples_per_cycle, downsample, frequency_condition : thinning (``decimation_factors``).
     batch_size : windows per training batch; train_fraction : fraction of the training windows kept
-        (a seeded random subset, for data-efficiency curves); seed : its random seed.
+        (a seeded random subset, for data-efficiency curves; the normaliser sees only the samples those
+        windows cover); seed : its random seed (and of the batch order, fixed per epoch).
     label_conditions : conditions named in the per-condition labels (default: all).
     """
 
@@ -186,8 +206,21 @@ class RecordDataModule(L.LightningDataModule):
         if short:
             raise ValueError(f"training records shorter than the window ({self.window} samples after thinning): "
                              f"{short}; lower data.window or the thinning")
-        self.normaliser = Normaliser.fit(self.prepared["train"], self.cond["train"], self.condition_names)
         self._train = self._make_train()
+        kept = sorted({i for i, _ in self._train.items})  # records with at least one kept window
+        self.normaliser = Normaliser.fit([self._kept_samples(i) for i in kept], [self.cond["train"][i] for i in kept],
+                                         self.condition_names)
+
+    def _kept_samples(self, i: int) -> dict[str, np.ndarray]:
+        """The samples of training record i covered by the kept windows (train_fraction < 1 sees only them)."""
+        p = self.prepared["train"][i]
+        if self.window is None:
+            return p
+        mask = np.zeros(len(p["t"]), dtype=bool)
+        for j, s in self._train.items:
+            if j == i:
+                mask[s: s + self.window] = True
+        return {k: v[mask] for k, v in p.items()}
 
     def _condition_vector(self, r: Record) -> list[float]:
         out = []
@@ -224,8 +257,7 @@ class RecordDataModule(L.LightningDataModule):
         return _Sequences(self.prepared[split], self.cond[split], None, 0, 1)
 
     def train_dataloader(self):
-        g = torch.Generator().manual_seed(self.seed)
-        return DataLoader(self._train, batch_size=self.batch_size, shuffle=True, generator=g,
+        return DataLoader(self._train, batch_size=self.batch_size, sampler=EpochShuffle(len(self._train), self.seed),
                           num_workers=self.num_workers, drop_last=False)
 
     def _whole_loader(self, split: str):

@@ -233,7 +233,7 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
              bounds: Mapping[str, tuple[float, float]] | None = None, box_factor: float = 10.0,
              noise_sd: float | None = None, target: float | None = None, seed: int = 0, fisher: bool = True,
              jacobian: str = "auto", progress: bool = True, input_channels=("x",), ode_method: str = "rk4",
-             substeps: int = 1, search_decimate: int = 1,
+             substeps: int = 1, search_decimate: int = 1, backend: str = "fast",
              torch_threads: int | None = 1) -> IdentificationResult:
     """Identify a nominal model's free parameters from records: global search, refinement, identifiability.
 
@@ -254,7 +254,7 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
     target : stop the search at this cost (MSE); seed : random seed (same seed, same result).
     fisher : run the identifiability analysis; jacobian : ``"autograd"`` (exact, M simulated rows for M
         samples), ``"fd"`` (central differences, 2 D rows) or ``"auto"`` (autograd up to 512 samples × records).
-    input_channels, ode_method, substeps : simulation settings (``simulate``).
+    input_channels, ode_method, substeps, backend : simulation settings (``simulate``).
     search_decimate : run the global search on every ``search_decimate``-th sample of each record (the
         refinement and every reported cost use all samples). 2 halves the search's cost; the coarser grid
         only has to rank members, so it works while the input is smooth at twice the sample interval.
@@ -279,15 +279,15 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
 
 def _identify(model, records, *, method, pop, generations, rounds, refine, restarts, lm_steps, adam_steps,
               lbfgs_steps, lr, bounds, box_factor, noise_sd, target, seed, fisher, jacobian, progress, input_channels,
-              ode_method, substeps, search_decimate) -> IdentificationResult:
+              ode_method, substeps, search_decimate, backend) -> IdentificationResult:
     start = time.perf_counter()
     space = SearchSpace(model, bounds, factor=box_factor)
     records = _records(records)
-    problem = RecordsProblem(space, records, input_channels, ode_method, substeps)
+    problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
     coarse = problem
     if int(search_decimate) != 1:
         coarse = RecordsProblem(space, _decimate_all(records, int(search_decimate)), input_channels, ode_method,
-                                substeps)
+                                substeps, backend)
     if target is None and noise_sd:
         target = (1.01 * noise_sd) ** 2
     mode = {True: "lm", False: "none", None: "none"}.get(refine, refine)

@@ -156,10 +156,12 @@ class SearchSpace(Box):
     model : a ``NominalModel``; its current values centre the default boxes.
     bounds : ``{coordinate name: (lower, upper)}`` overrides.
     factor : width of the default box, ``(v / factor, v · factor)``.
+    free : names of the coordinates to search (default: all); the others are held at their current
+        values (e.g. the discovery loop fitting only a newly added effect).
     """
 
     def __init__(self, model: nn.Module, bounds: Mapping[str, tuple[float, float]] | None = None,
-                 factor: float = 10.0):
+                 factor: float = 10.0, free=None):
         self.model = model
         self.functions = {(k, n): fn for k, e in model.effects.items() for n, fn in e.params.items()}
         specs = {(k, n): e.param_specs[n] for k, e in model.effects.items() for n in e.params}
@@ -176,6 +178,15 @@ class SearchSpace(Box):
         if bounds:
             raise ValueError(f"bounds given for unknown coordinate(s) {sorted(bounds)}; "
                              f"the coordinates are {[c.name for c in coords]}")
+        self.held: list[Coordinate] = []
+        if free is not None:
+            free = set(free)
+            unknown = free - {c.name for c in coords}
+            if unknown:
+                raise ValueError(f"free coordinate(s) {sorted(unknown)} are not in the model; "
+                                 f"its coordinates are {[c.name for c in coords]}")
+            self.held = [c for c in coords if c.name not in free]
+            coords = [c for c in coords if c.name in free]
         if not coords:
             raise ValueError("the model has no free parameters to identify; un-fix at least one")
         self.coordinates = coords
@@ -219,6 +230,8 @@ class SearchSpace(Box):
         cols = {}
         for j, c in enumerate(self.coordinates):
             cols.setdefault((c.effect, c.param), {})[(c.attr, c.index)] = X[:, j]
+        for c in self.held:
+            cols.setdefault((c.effect, c.param), {})[(c.attr, c.index)] = X.new_full((N,), c.value)
         out: dict[str, dict[str, torch.Tensor]] = {}
         for (key, pname), fn in self.functions.items():
             v = self._function_values(fn, cols.get((key, pname), {}), conditions, N, R, X)

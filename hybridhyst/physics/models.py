@@ -67,7 +67,7 @@ class NominalModel(nn.Module):
     def __init__(self, effects, units: dict[str, str] | None = None, name: str = "model", **structure_values):
         super().__init__()
         self.name = name
-        self.effects = _named_effects(effects)
+        self.effects = _named_effects(effects)  # laid out (state offsets) by _init_layout below
         self.units = {"t": "s", "x": "x", "F": "F", "u": "u", **(units or {})}
         unknown = set(structure_values) - set(self.structure_specs)
         if unknown:
@@ -78,12 +78,7 @@ class NominalModel(nn.Module):
         self.structure_params = nn.ModuleDict(
             {k: build_function(structure_values.get(k), spec) for k, spec in self.structure_specs.items()}
         )
-        offsets, start = {}, self.base_state_dim
-        for key, effect in self.effects.items():
-            offsets[key] = (start, start + effect.state_dim)
-            start += effect.state_dim
-        self._offsets = offsets
-        self.state_dim = start
+        self._init_layout(self.effects)
 
     # -- parameters -------------------------------------------------------------------------------
     def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> Params:
@@ -101,6 +96,32 @@ class NominalModel(nn.Module):
                 for k, fn in self.structure_params.items()
             }
         return out
+
+    def with_effects(self, effects) -> NominalModel:
+        """A copy of this model with another effect list (same structure, units, structure parameters).
+
+        ``effects`` maps keys to ``Effect`` modules (e.g. the current ones plus a new one); the effects
+        and the structure parameters are deep-copied, so the original model is left untouched.
+        """
+        import copy
+
+        new = copy.copy(self)
+        nn.Module.__init__(new)
+        for key, value in vars(self).items():
+            if not key.startswith("_"):
+                setattr(new, key, value)
+        type(self)._init_layout(new, nn.ModuleDict({k: copy.deepcopy(e) for k, e in effects.items()}))
+        new.structure_params = copy.deepcopy(self.structure_params)
+        return new
+
+    def _init_layout(self, effects: nn.ModuleDict) -> None:
+        self.effects = _named_effects(effects)
+        offsets, start = {}, self.base_state_dim
+        for key, effect in self.effects.items():
+            offsets[key] = (start, start + effect.state_dim)
+            start += effect.state_dim
+        self._offsets = offsets
+        self.state_dim = start
 
     def input_delay(self, P: Params) -> torch.Tensor | None:
         delays = [d for key, e in self.effects.items() if (d := e.input_delay(P[key])) is not None]

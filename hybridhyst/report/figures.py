@@ -63,10 +63,13 @@ def _test_predictions(path: str, notes: list[str]) -> pd.DataFrame | None:
 
 
 def _best_runs(runs: pd.DataFrame, summary: pd.DataFrame, limit: int) -> list[tuple[str, str]]:
-    """(configuration label, predictions path) of the lowest-test-RMSE seed of the best ``limit``
-    configurations that have predictions, in summary order."""
-    with_predictions = runs[(runs["status"] == "ok") & runs["predictions"].notna()]
-    best = with_predictions.loc[with_predictions.groupby("config")["test_rmse"].idxmin()]
+    """(configuration label, predictions path) of the seed with the lowest *validation* RMSE (training
+    RMSE without validation records; never the test error, which would flatter the figure) of the best
+    ``limit`` configurations that have predictions, in summary order."""
+    with_predictions = runs[(runs["status"] == "ok") & runs["predictions"].notna()].copy()
+    with_predictions["_choice"] = with_predictions["val_rmse"].fillna(with_predictions["train_rmse"])
+    with_predictions["_choice"] = with_predictions["_choice"].fillna(with_predictions["test_rmse"])
+    best = with_predictions.loc[with_predictions.groupby("config")["_choice"].idxmin()]
     path = dict(zip(best["config"], best["predictions"]))
     chosen = [(label, path[key]) for label, key in zip(summary["configuration"], summary["config"]) if key in path]
     return chosen[:limit]

@@ -105,7 +105,8 @@ def _figure_lines(figures: dict[str, Path | None], names: tuple[str, ...], headi
                                 "Mean test RMSE per held-out condition and configuration (the best "
                                 "configurations); error bars: std over seeds."),
         "loops": ("Hysteresis loops of the held-out conditions",
-                  "Measured response (grey) and the prediction of the best seed of the best configurations."),
+                  "Measured response (grey) and the prediction of the best seed (by validation error) of the "
+                  "best configurations."),
         "lambda_phys": ("Physics-loss weight λ_phys",
                         "Mean ± std test RMSE over seeds vs λ_phys, settings otherwise equal; λ = 0 at the left edge."),
         "data_efficiency": ("Data efficiency",

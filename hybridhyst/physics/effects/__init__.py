@@ -18,6 +18,7 @@ from .linear_stiffness import LinearStiffness as LinearStiffness
 from .lugre import LuGre as LuGre
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
+from .travel_drift import TravelDrift as TravelDrift
 from .viscous import Viscous as Viscous
 
 EFFECTS: dict[str, type[Effect]] = {
@@ -37,6 +38,7 @@ EFFECTS: dict[str, type[Effect]] = {
         Inertia,
         Attenuation,
         TimeDelay,
+        TravelDrift,
     )
 }
 
@@ -57,5 +59,6 @@ __all__ = [
     "LuGre",
     "Stribeck",
     "TimeDelay",
+    "TravelDrift",
     "Viscous",
 ]

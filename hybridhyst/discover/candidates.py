@@ -1,0 +1,183 @@
+"""Candidate augmentations of a nominal model: every library effect, and any parameter as a function of a
+condition. A candidate knows how to build the augmented model, which coordinates are new, and where the
+search for them starts (from the data's scales and the parameters' unit templates)."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.effects import EFFECTS, Effect
+from ..physics.models import DrivenOscillator
+from ..physics.parameters import Constant, Linear
+
+__all__ = ["Candidate", "Scales", "condition_candidates", "effect_candidates", "library_candidates"]
+
+# Effects left out of the default candidate list: bouc_wen_normalised is seed 002's re-parametrisation of
+# bouc_wen (the same family twice would only split the evidence).
+EXCLUDED = {"bouc_wen_normalised"}
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Typical magnitudes of the data, in its units: response F, excitation x, velocity v, input u, time t."""
+
+    F: float
+    x: float
+    v: float
+    u: float
+
+    @property
+    def t(self) -> float:
+        return self.x / self.v
+
+    @classmethod
+    def of(cls, records, input_is_x: bool = True) -> Scales:
+        y = np.concatenate([np.asarray(r.y, float) for r in records])
+        x = np.concatenate([np.asarray(r.x, float) for r in records])
+        v = np.concatenate([np.gradient(np.asarray(r.x, float), np.asarray(r.t, float)) for r in records])
+        pos = lambda a: float(np.std(a)) or float(np.max(np.abs(a))) or 1.0  # noqa: E731
+        return cls(F=pos(y), x=pos(x) if input_is_x else pos(y), v=pos(v), u=pos(x))
+
+    def of_unit(self, template: str) -> float | None:
+        """The scale of a unit template such as ``"F*t/x"`` or ``"F/(x*u)"``; None for dimensionless."""
+        if template in ("-", "", "1"):
+            return None
+        expr = re.sub(r"\^", "**", template)
+        if not re.fullmatch(r"[Fxtu0-9*/().^ ]+", template):
+            return None
+        return float(eval(expr, {"__builtins__": {}}, {"F": self.F, "x": self.x, "t": self.t, "u": self.u}))
+
+
+@dataclass
+class Candidate:
+    """One augmentation: ``build(model)`` returns the augmented copy; ``free`` its new coordinates with
+    ``bounds`` and ``starts`` (a few initial values each, tried as restarts in one batch)."""
+
+    name: str
+    kind: str  # "effect" or "condition"
+    build_fn: object
+    free: list[str]
+    bounds: dict[str, tuple[float, float]]
+    starts: list[dict[str, float]]
+    describe: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def build(self, model):
+        return self.build_fn(model)
+
+
+def _placed(model, key: str, effect: Effect):
+    """Input operators (effects that transform the kinematics, e.g. backlash) go first; others last."""
+    effects = dict(model.effects.items())
+    if type(effect).transform is not Effect.transform:
+        return model.with_effects({key: effect, **effects})
+    return model.with_effects({**effects, key: effect})
+
+
+def _interval(spec, scale, start: float) -> tuple[float, float]:
+    lo, hi = spec.bounds
+    if scale is None:
+        span = 100.0 * max(abs(start), 1.0)
+        return max(lo, start - span), min(hi, start + span)
+    if spec.constraint == "positive":
+        return max(lo, scale * 1e-3), min(hi, scale * 1e3)
+    if spec.constraint == "nonnegative" or lo >= 0:
+        return max(lo, 0.0), min(hi, scale * 1e2)
+    return max(lo, -scale * 1e2), min(hi, scale * 1e2)
+
+
+def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None) -> list[Candidate]:
+    """One candidate per library effect not yet in ``model`` (by library name), started from the data scales.
+
+    Amplitude-like parameters (those with a neutral value, and forces [F]) start small (0.05 and 0.3 of
+    their scale); shape parameters at their scale (or default when dimensionless) and 10× that.
+    """
+    present = {e.name for e in model.effects.values()}
+    out = []
+    for name in names if names is not None else sorted(EFFECTS):
+        cls = EFFECTS[name]
+        if name in present or (names is None and name in EXCLUDED):
+            continue
+        if name == "attenuation" and not isinstance(model, DrivenOscillator):
+            continue  # F = ξ|x|u needs a separate input u; on a damper law it is a cubic-like stiffness
+        key = name if name not in model.effects else f"{name}_added"
+        bounds, low, high = {}, {}, {}
+        for pname, spec in cls.specs.items():
+            scale = scales.of_unit(spec.unit)
+            amplitude = spec.neutral is not None or spec.unit == "F"
+            if scale is None:
+                a = b = float(spec.default)
+            elif amplitude:
+                a, b = 0.05 * scale, 0.3 * scale
+            else:
+                a, b = scale, 10.0 * scale
+            lo, hi = _interval(spec, scale, a)
+            a, b = min(max(a, lo), hi), min(max(b, lo), hi)
+            bounds[f"{key}.{pname}"], low[pname], high[pname] = (lo, hi), a, b
+        starts = [{f"{key}.{p}": v for p, v in low.items()}, {f"{key}.{p}": v for p, v in high.items()}]
+        mixed = {f"{key}.{p}": (high[p] if cls.specs[p].neutral is not None or cls.specs[p].unit == "F" else low[p])
+                 for p in cls.specs}
+        starts.append(mixed)
+
+        def build(m, key=key, cls=cls, start=starts[0]):
+            values = {k.split(".", 1)[1]: v for k, v in start.items()}
+            return _placed(m, key, cls(**values))
+
+        doc = (cls.__doc__ or name).strip().splitlines()[0]
+        out.append(Candidate(name=name, kind="effect", build_fn=build, free=list(bounds), bounds=bounds,
+                             starts=starts, describe=doc, meta={"key": key, "effect": name}))
+    return out
+
+
+def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> list[Candidate]:
+    """One candidate per (constant, free parameter) × (numeric condition with at least two training values):
+    the parameter becomes ``intercept + slope · condition``, starting at slope 0 (the fitted model)."""
+    out = []
+    for cond, values in conditions.items():
+        values = sorted({float(v) for v in values})
+        if len(values) < 2:
+            continue
+        span = values[-1] - values[0]
+        mid = 0.5 * (values[0] + values[-1])
+        for key, effect in model.effects.items():
+            for pname, fn in effect.params.items():
+                if not isinstance(fn, Constant):
+                    continue
+                v = float(fn.value.detach())
+                width = max(abs(v), 1e-12)
+                name = f"{key}.{pname}~{cond}"
+
+                def build(m, key=key, pname=pname, cond=cond, v=v, mid=mid):
+                    new = m.with_effects(dict(m.effects.items()))
+                    new.effects[key].params[pname] = Linear(slope=0.0, intercept=v, condition=cond).to(
+                        next(new.parameters()).dtype)
+                    return new
+
+                c0, c1 = f"{key}.{pname}.c0", f"{key}.{pname}.c1"
+                slope = width / max(span, 1e-12)
+                reach = 10 * width + 10 * slope * max(abs(values[0]), abs(values[-1]))
+                bounds = {c0: (v - reach, v + reach), c1: (-10 * slope, 10 * slope)}
+                # start with the value at the centre of the training conditions unchanged
+                starts = [{c0: v - s * slope * mid, c1: s * slope} for s in (-0.3, 0.3)]
+                out.append(Candidate(name=name, kind="condition", build_fn=build, free=[c0, c1], bounds=bounds,
+                                     starts=starts, describe=f"{key}.{pname} as a linear function of {cond}",
+                                     meta={"key": key, "param": pname, "condition": cond, "centre": mid}))
+    return out
+
+
+def library_candidates(model, scales: Scales, conditions: Mapping[str, Sequence[float]] | None = None,
+                       effects: Sequence[str] | None = None) -> list[Candidate]:
+    """Every effect candidate (or those named in ``effects``) and every condition candidate."""
+    out = effect_candidates(model, scales, effects)
+    if conditions:
+        out += condition_candidates(model, conditions)
+    return out
+
+
+def finite(x: float) -> bool:
+    return isinstance(x, (int, float)) and math.isfinite(x)

@@ -1,0 +1,91 @@
+"""Residual diagnostics: is the residual white, what does it depend on, where in the loop does it live."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["FEATURES", "diagnose", "features", "structure_explained"]
+
+FEATURES = ("x", "v", "sign_v", "since_reversal", "phase", "time", "travel")
+_BINS = 12
+
+
+def features(t: np.ndarray, x: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-sample features of one record: x, ẋ, sign(ẋ), distance travelled since the last reversal,
+    loop phase (angle of (x, ẋ) normalised by their spreads, radians), time, cumulative travel."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    v = np.gradient(x, t, edge_order=2) if len(x) > 2 else np.zeros_like(x)
+    s = np.sign(v)
+    since = np.zeros_like(x)
+    anchor = x[0]
+    for i in range(1, len(x)):
+        if s[i] != 0 and s[i - 1] != 0 and s[i] != s[i - 1]:
+            anchor = x[i - 1]
+        since[i] = abs(x[i] - anchor)
+    phase = np.arctan2(v / (np.std(v) or 1.0), (x - x.mean()) / (np.std(x) or 1.0))
+    travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(x)))])
+    return {"x": x, "v": v, "sign_v": s, "since_reversal": since, "phase": phase, "time": t - t[0], "travel": travel}
+
+
+def structure_explained(feature: np.ndarray, r: np.ndarray, bins: int = _BINS) -> float:
+    """Correlation ratio η² of the residual on a feature: the share of the residual's variance explained by
+    its mean in quantile bins of the feature (0: no dependence; 1: the residual is a function of it)."""
+    r = np.asarray(r, float)
+    total = float(np.var(r))
+    if total <= 0 or len(r) < 2 * bins:
+        return 0.0
+    f = np.asarray(feature, float)
+    edges = np.unique(np.quantile(f, np.linspace(0, 1, bins + 1)))
+    if len(edges) < 3:
+        groups = np.unique(f, return_inverse=True)[1]  # a few discrete values (sign, a condition)
+    else:
+        groups = np.clip(np.searchsorted(edges, f, side="right") - 1, 0, len(edges) - 2)
+    means = np.bincount(groups, weights=r) / np.maximum(np.bincount(groups), 1)
+    return float(np.var(means[groups]) / total)
+
+
+def _autocorrelation(r: np.ndarray, lags=(1, 5, 20)) -> dict[str, float]:
+    r = r - r.mean()
+    d = float(np.dot(r, r)) or 1.0
+    return {f"lag_{k}": float(np.dot(r[:-k], r[k:]) / d) if len(r) > k else math.nan for k in lags}
+
+
+def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
+    """Diagnostics of the residual (measured − predicted) over ``records`` (lists of the same length).
+
+    Returns
+    -------
+    ``{"rmse", "noise_sd", "whiteness": {"lag_1", "lag_5", "lag_20", "white"}, "dependence": {feature:
+    η²}, "where": {"phase_deg": centre of the phase bin with the largest mean |residual|, "share":
+    that bin's share of the residual energy}}``; the features are those of ``features`` plus every
+    numeric condition (per record). ``white`` is true when the lag-1 autocorrelation is below 0.3.
+    """
+    r_all, feats = [], {k: [] for k in FEATURES}
+    conds: dict[str, list] = {}
+    acs = []
+    for rec, pred in zip(records, predictions):
+        r = np.asarray(rec.y, float) - np.asarray(pred, float)
+        r_all.append(r)
+        for k, v in features(rec.t, rec.x).items():
+            feats[k].append(v)
+        for k, v in rec.conditions.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                conds.setdefault(k, []).append(np.full(len(r), float(v)))
+        acs.append(_autocorrelation(r))
+    r = np.concatenate(r_all)
+    dep = {k: structure_explained(np.concatenate(v), r) for k, v in feats.items()}
+    for k, v in conds.items():
+        if len(v) == len(r_all) and len({float(a[0]) for a in v}) > 1:
+            dep[f"condition:{k}"] = structure_explained(np.concatenate(v), r)
+    phase = np.concatenate(feats["phase"])
+    edges = np.linspace(-math.pi, math.pi, 13)
+    idx = np.clip(np.searchsorted(edges, phase, side="right") - 1, 0, 11)
+    energy = np.bincount(idx, weights=r**2, minlength=12)
+    k = int(np.argmax(energy))
+    white = {key: float(np.nanmean([a[key] for a in acs])) for key in acs[0]}
+    white["white"] = bool(white["lag_1"] < 0.3)
+    return {"rmse": float(np.sqrt(np.mean(r**2))), "noise_sd": noise_sd, "whiteness": white,
+            "dependence": dep, "where": {"phase_deg": float(np.degrees(0.5 * (edges[k] + edges[k + 1]))),
+                                         "share": float(energy[k] / max(energy.sum(), 1e-300))}}

@@ -1,0 +1,320 @@
+"""The closed loop: fit the nominal, diagnose the residual, rank candidate effects, add the best, refit,
+accept on validation error and an information criterion, repeat; then say what is left.
+
+Ranking: each candidate's new coordinates are fitted alone (everything already in the model held at its
+fitted value; a few starts as restarts of one batched Levenberg–Marquardt), and the share of the training
+residual's sum of squares they remove is the candidate's evidence. The best ``top`` candidates are then
+refitted with every coordinate free, and the one with the lowest validation RMSE is accepted if that RMSE
+falls by more than ``margin`` (relative) and the information criterion (BIC by default) improves.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from ..data.records import Record, RecordSet
+from ..identify import identify
+from ..identify.identify import RecordsProblem
+from ..identify.refine import levenberg_marquardt
+from ..identify.space import SearchSpace
+from ..simulate import simulate
+from .candidates import Candidate, Scales, library_candidates
+from .diagnose import diagnose
+
+__all__ = ["DiscoveryResult", "discover", "information_criterion"]
+
+
+@dataclass
+class DiscoveryResult:
+    """What ``discover`` found. ``model``: the final model; ``report``: the ``discovery.json`` content;
+    ``predictions``: ``{"before"|"after": {split: [arrays per record]}}``; ``splits``: the record sets."""
+
+    model: torch.nn.Module
+    report: dict
+    predictions: dict = field(default_factory=dict)
+    splits: dict = field(default_factory=dict)
+    initial_model: torch.nn.Module | None = None
+
+
+def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
+    """BIC = n ln(SSE/n) + k ln n, or AIC = n ln(SSE/n) + 2k (Gaussian errors, k free coordinates)."""
+    if n <= 0 or not math.isfinite(sse) or sse <= 0:
+        return math.inf
+    penalty = k * math.log(n) if kind == "bic" else 2 * k
+    return n * math.log(sse / n) + penalty
+
+
+def _as_records(records) -> list[Record]:
+    return list(records.records if isinstance(records, RecordSet) else records)
+
+
+def _predict(model, records, sim) -> list[np.ndarray]:
+    if not records:
+        return []
+    with torch.no_grad():
+        out = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    return [o[:, 0].numpy() for o in out]
+
+
+def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
+    if not records:
+        return {}
+    err = np.concatenate([np.asarray(r.y) - p for r, p in zip(records, preds)])
+    per: dict[str, list] = {}
+    for r, p in zip(records, preds):
+        per.setdefault(_label(r, labels), []).append(np.asarray(r.y) - p)
+    rmse = float(np.sqrt(np.mean(err**2))) if np.all(np.isfinite(err)) else math.inf
+    return {"rmse": rmse, "per_condition": {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in per.items()}}
+
+
+def _label(r: Record, names: Sequence[str] | None = None) -> str:
+    from ..data.datamodule import condition_label
+
+    return condition_label(r, names)
+
+
+def _numeric_conditions(records) -> dict[str, list[float]]:
+    out: dict[str, list[float]] = {}
+    for r in records:
+        for k, v in r.conditions.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(float(v)):
+                out.setdefault(k, []).append(float(v))
+    return {k: v for k, v in out.items() if len(v) == len(records)}
+
+
+def _sse(problem: RecordsProblem, x: torch.Tensor) -> float:
+    with torch.no_grad():
+        c = float(problem.cost(x[None])[0])
+    return c * problem.n_samples if math.isfinite(c) else math.inf
+
+
+def _fit_new(candidate: Candidate, model, train, sim, lm_steps) -> tuple[float, torch.nn.Module | None, dict]:
+    """Fit only the candidate's new coordinates; returns (SSE, augmented model with them, coordinates)."""
+    aug = candidate.build(model)
+    space = SearchSpace(aug, bounds=candidate.bounds, free=candidate.free)
+    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    starts = torch.tensor([[s[n] for n in space.names] for s in candidate.starts], dtype=torch.float64)
+    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, progress=False)
+    if not math.isfinite(lm.cost):
+        return math.inf, None, {}
+    space.to_model(lm.x)
+    return lm.cost * problem.n_samples, aug, dict(zip(space.names, lm.x.tolist()))
+
+
+def _refit_all(model, candidate: Candidate | None, train, sim, lm_steps, box_factor) -> tuple[float, int, dict]:
+    """Every coordinate free (new ones within the candidate's bounds, the others in a box around their
+    fitted values); batched LM from the current point. Returns (SSE, number of coordinates, coordinates)."""
+    bounds = dict(candidate.bounds) if candidate else {}
+    space = SearchSpace(model, bounds=bounds, factor=box_factor)
+    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    x0 = space.initial().clamp(space.lower, space.upper)
+    lm = levenberg_marquardt(problem.residuals, space, x0[None], iters=lm_steps, progress=False)
+    x = lm.x if math.isfinite(lm.cost) else x0
+    space.to_model(x)
+    return _sse(problem, x), space.dim, dict(zip(space.names, x.tolist()))
+
+
+def _rmse_of(model, records, sim) -> float:
+    return _metrics(records, _predict(model, records, sim)).get("rmse", math.inf) if records else math.inf
+
+
+def _parameters(model) -> dict:
+    from ..cli.common import parameter_table
+
+    return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
+            for e, params in parameter_table(model).items() for p, info in params.items()}
+
+
+def discover(records, nominal, candidates: Sequence[str] | None = None, split: Mapping | None = None, *,
+             conditions: bool | Sequence[str] = True, label_conditions: Sequence[str] | None = None,
+             margin: float = 0.02, criterion: str = "bic", max_steps: int = 4,
+             top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
+             fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
+             method: str = "rk4", substeps: int = 1, progress: bool = True) -> DiscoveryResult:
+    """Find, name and add the effects a nominal model lacks; report the error before and after.
+
+    Parameters
+    ----------
+    records : a ``RecordSet`` (or list of records) with operating conditions.
+    nominal : the starting ``NominalModel`` (fitted in place and then augmented copies of it).
+    candidates : library effect names to consider (default: the whole library, see ``candidates.py``).
+    split : ``{"held_out": query, "val": query}`` as ``RecordSet.split``; test = held-out conditions.
+    conditions : also try making each constant parameter a linear function of each numeric condition
+        (True), of the conditions named (a list), or of none (False). Name only conditions that mean the
+        same physical thing on the held-out records (e.g. not a test frequency that is 0 for an earthquake).
+    label_conditions : conditions shown in per-condition labels (default: all).
+    margin : relative fall of the validation RMSE (training RMSE without validation records) required.
+    criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
+    top : candidates refitted with every coordinate free; lm_steps : LM iterations per fit.
+    noise_sd : known noise level (reported beside the residual RMSE; not used by the rule).
+    fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
+        ``identify_options``); else start from its current values.
+    backend, method, substeps : simulator settings ("fast": compiled, cached per model structure).
+
+    Raises
+    ------
+    ValueError
+        Unknown candidate names, a split leaving no training records, records too short to identify.
+    """
+    start = time.perf_counter()
+    if criterion not in ("bic", "aic"):
+        raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")
+    records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
+    from ..physics.effects import EFFECTS
+
+    unknown = [c for c in (candidates or []) if c not in EFFECTS]
+    if unknown:
+        raise ValueError(f"unknown candidate effect(s) {unknown}; the library has {sorted(EFFECTS)}")
+    split = dict(split or {})
+    train_set, val_set, test_set = records.split(held_out=split.get("held_out"), val=split.get("val"))
+    train, val, test = _as_records(train_set), _as_records(val_set), _as_records(test_set)
+    sim = {"backend": backend, "method": method, "substeps": int(substeps)}
+    n_train = sum(len(r) for r in train)
+    for r in train:
+        r.require_samples(16, "discovery (identifying a candidate effect)")
+    initial = None
+    model = nominal
+    if fit_nominal:
+        opts = {"method": "de", "pop": 24, "generations": 20, "restarts": 4, **dict(identify_options or {})}
+        identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
+                 substeps=substeps, **opts)
+    import copy
+
+    initial = copy.deepcopy(model)
+    scored = val or train
+    space = SearchSpace(model, factor=box_factor)
+    base_problem = RecordsProblem(space, train, method=method, substeps=substeps, backend=backend)
+    sse, k = _sse(base_problem, space.initial()), space.dim
+    ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
+    before = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
+              for s, rs in (("train", train), ("val", val), ("test", test))}
+    diag_before = diagnose(train, _predict(model, train, sim), noise_sd)
+    steps, rejected = [], []
+    tried = set()
+    scales = Scales.of(train)
+    cond_values = _numeric_conditions(train) if conditions else {}
+    if conditions and not isinstance(conditions, bool):
+        missing = [c for c in conditions if c not in cond_values]
+        if missing:
+            raise ValueError(f"condition(s) {missing} are not numeric conditions of every training record; "
+                             f"available: {sorted(cond_values)}")
+        cond_values = {c: cond_values[c] for c in conditions}
+    for _step in range(int(max_steps)):
+        cands = [c for c in library_candidates(model, scales, cond_values, candidates) if c.name not in tried]
+        if not cands:
+            break
+        ranking = []
+        for cand in _progress(cands, progress, "rank candidates"):
+            try:
+                c_sse, aug, coords = _fit_new(cand, model, train, sim, lm_steps)
+            except (ValueError, RuntimeError) as exc:  # a candidate that cannot be simulated is skipped
+                c_sse, aug, coords = math.inf, None, {"error": str(exc)}
+            ranking.append((cand, c_sse, aug, coords))
+        ranking.sort(key=lambda item: item[1])
+        evidence = {c.name: (1 - s / sse if math.isfinite(s) and sse > 0 else None) for c, s, _, _ in ranking}
+        finals = []
+        for cand, _sse_new, aug, _coords in ranking[: int(top)]:
+            if aug is None:
+                continue
+            f_sse, f_k, f_coords = _refit_all(aug, cand, train, sim, lm_steps, box_factor)
+            finals.append((cand, aug, f_sse, f_k, f_coords, _rmse_of(aug, scored, sim)))
+        if not finals:
+            break
+        cand, aug, f_sse, f_k, f_coords, f_val = min(finals, key=lambda f: f[5])
+        f_ic = information_criterion(f_sse, n_train, f_k, criterion)
+        accepted = f_val < (1 - margin) * val_rmse and f_ic < ic
+        entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,
+                 "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
+                              "val_rmse_before": val_rmse, "val_rmse_after": f_val,
+                              f"{criterion}_before": ic, f"{criterion}_after": f_ic,
+                              "refitted": [f[0].name for f in finals]},
+                 "parameters": {k: v for k, v in _parameters(aug).items()},
+                 "new_coordinates": {n: f_coords.get(n) for n in cand.free},
+                 "train_rmse": math.sqrt(f_sse / n_train) if math.isfinite(f_sse) else math.inf,
+                 "val_rmse": _rmse_of(aug, val, sim) if val else None,
+                 "test_rmse": _rmse_of(aug, test, sim) if test else None, "accepted": accepted}
+        if not accepted:
+            rejected.append(entry)
+            break
+        steps.append(entry)
+        tried.add(cand.name)
+        model, sse, k, ic, val_rmse = aug, f_sse, f_k, f_ic, f_val
+    after = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
+             for s, rs in (("train", train), ("val", val), ("test", test))}
+    diag_after = diagnose(train, _predict(model, train, sim), noise_sd)
+    report = {
+        "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
+                   "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
+                   "parameters": _parameters(initial), "diagnostics": diag_before},
+        "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
+                  "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
+                  "parameters": _parameters(model), "diagnostics": diag_after},
+        "steps": steps, "rejected": rejected,
+        "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": noise_sd,
+                        "dependence": diag_after["dependence"], "whiteness": diag_after["whiteness"],
+                        "where": diag_after["where"],
+                        "residual_network": residual_network(train, _predict(model, train, sim), val or None,
+                                                             _predict(model, val, sim) if val else None)},
+        "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
+                     "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
+                     "conditions": conditions if isinstance(conditions, bool) else list(conditions),
+                     "backend": backend, "substeps": substeps},
+        "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
+        "wall_s": time.perf_counter() - start,
+    }
+    preds = {"before": {s: _predict(initial, rs, sim) for s, rs in (("train", train), ("val", val), ("test", test))},
+             "after": {s: _predict(model, rs, sim) for s, rs in (("train", train), ("val", val), ("test", test))}}
+    return DiscoveryResult(model=model, report=report, predictions=preds,
+                           splits={"train": train, "val": val, "test": test}, initial_model=initial)
+
+
+def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:
+    """How much of the remaining residual a small network of (x, ẋ, sign ẋ, travel since reversal,
+    conditions) recovers: the share of residual variance it explains on validation records (training
+    records without them). An honest "is anything structured left" number, not a model."""
+    from .diagnose import features
+
+    def table(records, preds):
+        X, R = [], []
+        for rec, p in zip(records, preds):
+            f = features(rec.t, rec.x)
+            cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"]]
+            X.append(np.stack(cols, 1))
+            R.append(np.asarray(rec.y) - p)
+        return np.concatenate(X), np.concatenate(R)
+
+    X, R = table(train, train_pred)
+    Xv, Rv = table(val, val_pred) if val else (X, R)
+    mu, sd = X.mean(0), X.std(0) + 1e-12
+    rs = R.std() or 1.0
+    g = torch.Generator().manual_seed(seed)
+    torch.manual_seed(seed)
+    net = torch.nn.Sequential(torch.nn.Linear(X.shape[1], 32), torch.nn.Tanh(), torch.nn.Linear(32, 32),
+                              torch.nn.Tanh(), torch.nn.Linear(32, 1)).double()
+    opt = torch.optim.Adam(net.parameters(), lr=1e-2)
+    Xt, Rt = torch.as_tensor((X - mu) / sd), torch.as_tensor(R / rs)
+    for _ in range(steps):
+        idx = torch.randint(0, len(Xt), (min(len(Xt), 2048),), generator=g)
+        loss = (net(Xt[idx])[:, 0] - Rt[idx]).square().mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    with torch.no_grad():
+        pv = net(torch.as_tensor((Xv - mu) / sd))[:, 0].numpy() * rs
+    share = 1 - float(np.var(Rv - pv) / max(np.var(Rv), 1e-300))
+    return {"explained_share": share, "on": "val" if val else "train",
+            "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
+
+
+def _progress(items, enabled: bool, what: str):
+    if not enabled:
+        return items
+    from tqdm.auto import tqdm
+
+    return tqdm(items, desc=what, leave=False)

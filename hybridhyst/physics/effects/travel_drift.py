@@ -1,0 +1,43 @@
+"""Friction level drifting with cumulative travel (wear, heating, run-in)."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from ..parameters import ParameterSpec
+from .base import Effect, Kinematics, absolute, rates, smooth_sign
+
+
+class TravelDrift(Effect):
+    """A sliding-friction level that changes in proportion to the distance travelled so far.
+
+    State and force::
+
+        ṡ = |v|
+        F = dF · s · tanh(v / v_s)
+
+    s [x] is the cumulative travel since the record started (the state starts at 0 with every record),
+    so the friction level at travel s is the nominal's plus dF · s: dF > 0 for a level that grows (run-in,
+    contamination), dF < 0 for one that fades (heating, wear of the pads). It is the discovery loop's
+    candidate for "slow drift / degradation of a parameter with cumulative travel"; a drift across records
+    (one test after another) is a parameter function of a condition instead.
+
+    Units: dF [F/x] (real, neutral 0: no drift), v_s [x/t] (> 0, sign smoothing, as ``Coulomb``).
+    Shapes: ``(batch,)``; state ``(batch, 1)``. Source: hybridhyst (a linear wear law, cf. Archard).
+    """
+
+    name = "travel_drift"
+    state_dim = 1
+    equation = "ds/dt = |v|;  F = dF * s * tanh(v / v_s)"
+    source = "hybridhyst: linear drift of the friction level with cumulative travel"
+    specs: ClassVar[dict[str, ParameterSpec]] = {
+        "dF": ParameterSpec(0.0, "F/x", (-1e9, 1e9), "real", neutral=0.0,
+                            doc="change of the friction level per unit travel"),
+        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign-smoothing velocity"),
+    }
+
+    def rate(self, p, kin: Kinematics, state):
+        return rates(absolute(kin.v))
+
+    def force(self, p, kin: Kinematics, state):
+        return p["dF"] * state[:, 0] * smooth_sign(kin.v, p["v_s"])

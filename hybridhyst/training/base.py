@@ -1,0 +1,295 @@
+"""Shared machinery of the Lightning modules: features, losses, metrics, optimiser, the nominal simulator."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+
+import lightning as L
+import numpy as np
+import torch
+from torch import nn
+
+from ..data.datamodule import Normaliser
+from ..nets import count_parameters
+from ..physics.models import DrivenOscillator
+from ..simulate import simulate
+from .losses import data_loss
+
+__all__ = ["SequenceModule", "NominalMixin", "InputSampleOf", "load_nominal_state"]
+
+_FEATURES = ("t", "u", "du", "ddu")
+
+
+class SequenceModule(L.LightningModule):
+    """Shared machinery: features, losses, validation metrics in physical units, optimiser.
+
+    Parameters
+    ----------
+    normaliser : ``Normaliser.to_dict()`` of the training data (fitted on training records only).
+    condition_names : numeric conditions in ``batch["cond"]`` (network inputs, parameter functions).
+    features : input channels of networks among "t", "u", "du", "ddu" (conditions are appended).
+    lr, weight_decay : Adam settings of the networks; nominal_lr : relative Adam step of each nominal
+        parameter (times max(|raw value|, 1); default ``lr``).
+    loss : "mse" or "mae" data misfit; lambda_phys : physics weight.
+    normalise_loss : divide the data misfit by the training response sd (default); False keeps it in the
+        response's units (seed 000's MAE in Nm).
+    units : the data's units (``{"y": "kip", ...}``), for logs and reports.
+    """
+
+    kind = "base"
+
+    def __init__(self, normaliser: dict, condition_names: Sequence[str] = (),
+                 features: Sequence[str] = ("t", "u", "du"), lr: float = 1e-3, weight_decay: float = 0.0,
+                 loss: str = "mse", lambda_phys: float = 0.0, units: dict | None = None,
+                 nominal_lr: float | None = None, normalise_loss: bool = True):
+        super().__init__()
+        bad = [f for f in features if f not in _FEATURES]
+        if bad:
+            raise ValueError(f"unknown network feature(s) {bad}; choose from {_FEATURES}")
+        if loss not in ("mse", "mae"):
+            raise ValueError(f"unknown data loss {loss!r}; choose 'mse' or 'mae'")
+        if float(lambda_phys) < 0:
+            raise ValueError(f"lambda_phys must be >= 0, got {lambda_phys}")
+        self.norm = Normaliser.from_dict(normaliser)
+        self.condition_names = list(condition_names)
+        self.feature_names = list(features)
+        self.lr, self.weight_decay, self.loss_kind = float(lr), float(weight_decay), loss
+        self.nominal_lr = float(lr if nominal_lr is None else nominal_lr)
+        self.normalise_loss = bool(normalise_loss)
+        self.lambda_phys = float(lambda_phys)
+        self.units = dict(units or {})
+        self.history: list[dict] = []  # per-epoch parameter values (modules with a nominal)
+        self._val = {"sse": 0.0, "sae": 0.0, "n": 0}
+        self._epoch_start = time.perf_counter()
+
+    # -- features ----------------------------------------------------------------------------------
+    @property
+    def n_features(self) -> int:
+        return len(self.feature_names) + len(self.condition_names)
+
+    def features(self, batch, inputs=None, t=None) -> torch.Tensor:
+        """Normalised network inputs ``(batch, time, n_features)``; ``inputs``/``t`` override the batch's."""
+        ch = {"t": batch["t"] if t is None else t, "u": batch["u"], "du": batch["du"], "ddu": batch["ddu"]}
+        if inputs is not None:
+            ch.update(u=inputs.u, du=inputs.du, ddu=inputs.ddu)
+        cols = [self.norm.scale(name, ch[name]) for name in self.feature_names]
+        T = cols[0].shape[1] if cols else batch["t"].shape[1]
+        for j, name in enumerate(self.condition_names):
+            cols.append(self.norm.scale(name, batch["cond"][:, j])[:, None].expand(-1, T))
+        return torch.stack(cols, dim=-1).to(self.dtype)
+
+    @property
+    def y_scale(self) -> float:
+        return self.norm.sd["y"]
+
+    # -- to be provided ----------------------------------------------------------------------------
+    def forward(self, batch) -> dict:
+        """``{"y": (batch, time) prediction, "nominal": (batch, time) or None}`` in physical units."""
+        raise NotImplementedError
+
+    def physics_loss(self, batch, out) -> torch.Tensor | None:
+        return None
+
+    def prior_loss(self) -> torch.Tensor | None:
+        return None
+
+    # -- Lightning ---------------------------------------------------------------------------------
+    def training_step(self, batch, batch_idx):
+        out = self(batch)
+        scale = self.y_scale if self.normalise_loss else 1.0
+        loss = data_loss(out["y"], batch["y"].to(out["y"]), batch["mask"].to(out["y"]), scale, self.loss_kind)
+        B = batch["y"].shape[0]
+        self.log("train/data_loss", loss, batch_size=B, on_step=False, on_epoch=True)
+        if self.lambda_phys > 0:
+            phys = self.physics_loss(batch, out)
+            if phys is not None:
+                self.log("train/phys_loss", phys, batch_size=B, on_step=False, on_epoch=True)
+                loss = loss + self.lambda_phys * phys
+        prior = self.prior_loss()
+        if prior is not None:
+            self.log("train/prior_loss", prior, batch_size=B, on_step=False, on_epoch=True)
+            loss = loss + prior
+        if not torch.isfinite(loss):  # a diverged simulation or residual: skip this step, count it
+            self.log("train/skipped_steps", 1.0, batch_size=B, on_step=False, on_epoch=True, reduce_fx="sum")
+            return None
+        self.log("train/loss", loss, batch_size=B, on_step=False, on_epoch=True, prog_bar=True)
+        return loss
+
+    def on_validation_epoch_start(self):
+        self._val = {"sse": 0.0, "sae": 0.0, "n": 0}
+
+    def validation_step(self, batch, batch_idx):
+        with torch.no_grad():
+            err = (self(batch)["y"] - batch["y"].to(self.dtype)).detach()
+        self._val["sse"] += float(err.square().sum())
+        self._val["sae"] += float(err.abs().sum())
+        self._val["n"] += err.numel()
+
+    def on_validation_epoch_end(self):
+        n = max(self._val["n"], 1)
+        rmse = math.sqrt(self._val["sse"] / n)
+        self.log("val/rmse", rmse if math.isfinite(rmse) else float("inf"), prog_bar=True, sync_dist=True)
+        self.log("val/mae", self._val["sae"] / n, sync_dist=True)
+
+    def on_save_checkpoint(self, checkpoint):
+        checkpoint["hybridhyst_history"] = list(self.history)
+
+    def on_load_checkpoint(self, checkpoint):
+        self.history = list(checkpoint.get("hybridhyst_history", []))
+
+    def configure_optimizers(self):
+        """Adam: networks at ``lr``; each nominal parameter in its own group at ``nominal_lr × max(|raw|, 1)``
+        (a relative step, so a stiffness of 5e4 N/m and a friction force of 0.5 kip move alike)."""
+        nominal = getattr(self, "nominal", None)
+        own = {id(p) for p in nominal.parameters()} if nominal is not None else set()
+        groups = [{"params": [p for p in self.parameters() if p.requires_grad and id(p) not in own], "lr": self.lr,
+                   "weight_decay": self.weight_decay}]
+        if nominal is not None:
+            groups += [{"params": [p], "lr": self.nominal_lr * max(float(p.detach().abs().max()), 1.0),
+                        "weight_decay": 0.0} for p in nominal.parameters() if p.requires_grad]
+        groups = [g for g in groups if g["params"]]
+        return torch.optim.Adam(groups, lr=self.lr)
+
+    def n_parameters(self) -> int:
+        return count_parameters(self)
+
+
+class NominalMixin:
+    """A nominal model simulated along the batch (grouped by time grid), on the compiled fast path."""
+
+    nominal: nn.Module
+
+    def _setup_nominal(self, nominal, backend: str, method: str, substeps: int, trainable: bool):
+        self.nominal = nominal
+        self.sim = {"backend": backend, "method": method, "substeps": int(substeps)}
+        for p in self.nominal.parameters():
+            p.requires_grad_(bool(trainable))
+
+    def conditions(self, batch, rows: int | None = None) -> dict[str, torch.Tensor]:
+        cond = {name: batch["cond"][:, j].to(self.dtype) for j, name in enumerate(self.condition_names)}
+        if rows is not None:
+            reps = rows // batch["cond"].shape[0]
+            cond = {k: v.repeat_interleave(reps) for k, v in cond.items()}
+        return cond
+
+    def _initial_state(self, batch):
+        """Oscillators whose output is the position start a mid-record window at the measured (y, ẏ)."""
+        if not (isinstance(self.nominal, DrivenOscillator) and self.nominal.outputs[0] == "x"):
+            return None
+        y0 = batch["y0"].to(self.dtype)
+        return torch.where((batch["start"] > 0)[:, None], y0, torch.zeros_like(y0))
+
+    def simulate_nominal(self, batch, return_states: bool = False):
+        """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input."""
+        t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
+        U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
+        cond, s0 = self.conditions(batch), self._initial_state(batch)
+        grid = np.round(t.detach().cpu().numpy(), 12)
+        groups: dict[bytes, list[int]] = {}
+        for i, row in enumerate(grid):
+            groups.setdefault(row.tobytes(), []).append(i)
+        ys, ss = [None] * t.shape[0], [None] * t.shape[0]
+        for idx in groups.values():
+            sel = torch.tensor(idx)
+            res = simulate(self.nominal, U[sel], t=t[idx[0]], conditions={k: v[sel] for k, v in cond.items()},
+                           initial_state=None if s0 is None else s0[sel], return_states=return_states, **self.sim)
+            y, s = res if return_states else (res, None)
+            for j, i in enumerate(idx):
+                ys[i] = y[j, :, 0]
+                ss[i] = None if s is None else s[j]
+        Y = torch.stack(ys)
+        return (Y, torch.stack(ss)) if return_states else Y
+
+    def nominal_values(self) -> dict[str, float]:
+        """Nominal parameters in their units: ``{"effect.param": value}`` for constants, and for parameters
+        that are functions of a condition their value at each training condition,
+        ``{"effect.param@pressure_mpa=0.03": value}`` (trajectories, TensorBoard, metrics.json)."""
+        from ..cli.common import parameter_table
+
+        out, varying = {}, []
+        for e, params in parameter_table(self.nominal).items():
+            for p, info in params.items():
+                if isinstance(info["value"], (int, float)):
+                    out[f"{e}.{p}"] = float(info["value"])
+                else:
+                    varying.append((e, p))
+        levels = self._training_conditions()
+        if varying and levels:
+            with torch.no_grad():
+                P = self.nominal.evaluate({k: torch.tensor([lv[k] for lv in levels], dtype=self.dtype)
+                                           for k in levels[0]}, len(levels))
+            for e, p in varying:
+                for i, lv in enumerate(levels):
+                    at = ",".join(f"{k}={v:g}" for k, v in lv.items())
+                    out[f"{e}.{p}@{at}"] = float(P[e][p][i])
+        return out
+
+    def _training_conditions(self) -> list[dict[str, float]]:
+        dm = getattr(getattr(self, "_trainer", None), "datamodule", None)
+        if dm is None or not self.condition_names:
+            return []
+        rows = sorted({tuple(c) for c in dm.cond["train"]})
+        return [dict(zip(self.condition_names, r)) for r in rows]
+
+    def nominal_units(self) -> dict[str, str]:
+        from ..cli.common import parameter_table
+
+        units = {f"{e}.{p}": info["unit"] for e, params in parameter_table(self.nominal).items()
+                 for p, info in params.items()}
+        return {k: units.get(k.split("@")[0], "") for k in self.nominal_values()} | units
+
+    def on_train_batch_end(self, outputs, batch, batch_idx):
+        from ..physics.parameters import project_to_bounds
+
+        project_to_bounds(self.nominal)  # amplitudes stored unconstrained stay inside their bounds
+
+    def on_train_epoch_end(self):
+        values = self.nominal_values()
+        self.history.append({"epoch": int(self.current_epoch), **values})
+        units = self.nominal_units()
+        for key, v in values.items():
+            self.log(f"phys/{key} [{units.get(key, '')}]", v)
+
+    def flat(self, batch, out=None):
+        """Masked collocation rows: inputs, times and the nominal's parameter values ``(N,)`` (detached: the
+        physics residual regularises the networks, not the nominal)."""
+        m = batch["mask"].reshape(-1) > 0
+        B, T = batch["u"].shape
+        rows = {k: batch[k].reshape(-1)[m].to(self.dtype) for k in ("t", "u", "du", "ddu", "dddu")}
+        cond = {k: v.repeat_interleave(T)[m] for k, v in self.conditions(batch).items()}
+        P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in self.nominal.evaluate(cond, int(m.sum())).items()}
+        return m, rows, P
+
+
+def InputSampleOf(rows):  # noqa: N802 - reads like the class it builds
+    from ..physics.models import InputSample
+
+    return InputSample(u=rows["u"], du=rows["du"], ddu=rows["ddu"])
+
+
+def _col(inp):
+    from ..physics.models import InputSample
+
+    return InputSample(u=inp.u[:, None], du=inp.du[:, None], ddu=inp.ddu[:, None])
+
+
+def _flat_cond(batch, m):
+    T = batch["u"].shape[1]
+    return batch["cond"].repeat_interleave(T, dim=0)[m]
+
+
+def load_nominal_state(path) -> dict:
+    """A nominal's state dict from a ``model.pt`` or a run directory holding one (``hybridhyst-identify``,
+    ``hybridhyst-train``)."""
+    from pathlib import Path
+
+    p = Path(path)
+    if p.is_dir():
+        p = p / "model.pt"
+    if not p.exists():
+        raise FileNotFoundError(f"nominal state {p} not found; give a model.pt or a run directory holding one")
+    return torch.load(p, map_location="cpu", weights_only=True)
+
+
