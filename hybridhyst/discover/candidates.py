@@ -36,12 +36,17 @@ class Scales:
         return self.x / self.v
 
     @classmethod
-    def of(cls, records, input_is_x: bool = True) -> Scales:
+    def of(cls, records, oscillator: bool = False) -> Scales:
+        """Scales from records: for a damper law the excitation is x and the response F; for an oscillator
+        driven by a force the response is the motion x and the input u sets the force scale."""
         y = np.concatenate([np.asarray(r.y, float) for r in records])
-        x = np.concatenate([np.asarray(r.x, float) for r in records])
-        v = np.concatenate([np.gradient(np.asarray(r.x, float), np.asarray(r.t, float)) for r in records])
+        u = np.concatenate([np.asarray(r.x, float) for r in records])
+        motion = [r.y if oscillator else r.x for r in records]
+        v = np.concatenate([np.gradient(np.asarray(m, float), np.asarray(r.t, float)) for m, r in zip(motion, records)])
         pos = lambda a: float(np.std(a)) or float(np.max(np.abs(a))) or 1.0  # noqa: E731
-        return cls(F=pos(y), x=pos(x) if input_is_x else pos(y), v=pos(v), u=pos(x))
+        if oscillator:
+            return cls(F=pos(u), x=pos(y), v=pos(v), u=pos(u))
+        return cls(F=pos(y), x=pos(u), v=pos(v), u=pos(u))
 
     def of_unit(self, template: str) -> float | None:
         """The scale of a unit template such as ``"F*t/x"`` or ``"F/(x*u)"``; None for dimensionless."""
@@ -95,7 +100,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
     """One candidate per library effect not yet in ``model`` (by library name), started from the data scales.
 
     Amplitude-like parameters (those with a neutral value, and forces [F]) start small (0.05 and 0.3 of
-    their scale); shape parameters at their scale (or default when dimensionless) and 10× that.
+    their scale); shape parameters at their scale (or default when dimensionless) and 10× that. An effect
+    may give ``discovery_units = {parameter: unit template}`` for parameters whose literal unit is "-" but
+    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x").
     """
     present = {e.name for e in model.effects.values()}
     out = []
@@ -107,8 +114,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
             continue  # F = ξ|x|u needs a separate input u; on a damper law it is a cubic-like stiffness
         key = name if name not in model.effects else f"{name}_added"
         bounds, low, high = {}, {}, {}
+        hints = getattr(cls, "discovery_units", {})
         for pname, spec in cls.specs.items():
-            scale = scales.of_unit(spec.unit)
+            scale = scales.of_unit(hints.get(pname, spec.unit))
             amplitude = spec.neutral is not None or spec.unit == "F"
             if scale is None:
                 a = b = float(spec.default)

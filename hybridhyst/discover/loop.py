@@ -1,11 +1,13 @@
 """The closed loop: fit the nominal, diagnose the residual, rank candidate effects, add the best, refit,
 accept on validation error and an information criterion, repeat; then say what is left.
 
-Ranking: each candidate's new coordinates are fitted alone (everything already in the model held at its
-fitted value; a few starts as restarts of one batched Levenberg–Marquardt), and the share of the training
-residual's sum of squares they remove is the candidate's evidence. The best ``top`` candidates are then
-refitted with every coordinate free, and the one with the lowest validation RMSE is accepted if that RMSE
-falls by more than ``margin`` (relative) and the information criterion (BIC by default) improves.
+Ranking: the model augmented by each candidate is refitted with every coordinate free (the candidate's
+few starting values as restarts of one batched Levenberg–Marquardt, the other coordinates from their
+fitted values), and the share of the training residual's sum of squares that disappears is the
+candidate's evidence. Of the best ``top`` candidates the one with the lowest validation RMSE is chosen
+(among those within ``margin`` of it, the one with the lowest information criterion: validation cannot
+tell them apart, so the more parsimonious wins) and accepted if its validation RMSE falls by more than
+``margin`` (relative) and the information criterion (BIC by default) improves.
 """
 
 from __future__ import annotations
@@ -94,30 +96,24 @@ def _sse(problem: RecordsProblem, x: torch.Tensor) -> float:
     return c * problem.n_samples if math.isfinite(c) else math.inf
 
 
-def _fit_new(candidate: Candidate, model, train, sim, lm_steps) -> tuple[float, torch.nn.Module | None, dict]:
-    """Fit only the candidate's new coordinates; returns (SSE, augmented model with them, coordinates)."""
+def _fit_new(candidate: Candidate, model, train, sim, lm_steps, box_factor) -> tuple[float, object, dict]:
+    """Fit the model augmented by ``candidate``: every coordinate free (the new ones within the candidate's
+    bounds, the others in a box around their fitted values), one batched Levenberg–Marquardt whose rows
+    start from the fitted values with each of the candidate's starts. Returns (SSE, model, coordinates).
+
+    Freeing the old coordinates matters: a nominal fitted without friction has, say, an inflated viscous
+    coefficient, which the new Coulomb term can only replace if that coefficient may come down."""
     aug = candidate.build(model)
-    space = SearchSpace(aug, bounds=candidate.bounds, free=candidate.free)
+    space = SearchSpace(aug, bounds=candidate.bounds, factor=box_factor)
     problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    starts = torch.tensor([[s[n] for n in space.names] for s in candidate.starts], dtype=torch.float64)
+    current = dict(zip(space.names, space.initial().tolist()))
+    starts = torch.tensor([[s.get(n, current[n]) for n in space.names] for s in candidate.starts],
+                          dtype=torch.float64).clamp(space.lower, space.upper)
     lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, progress=False)
     if not math.isfinite(lm.cost):
         return math.inf, None, {}
     space.to_model(lm.x)
     return lm.cost * problem.n_samples, aug, dict(zip(space.names, lm.x.tolist()))
-
-
-def _refit_all(model, candidate: Candidate | None, train, sim, lm_steps, box_factor) -> tuple[float, int, dict]:
-    """Every coordinate free (new ones within the candidate's bounds, the others in a box around their
-    fitted values); batched LM from the current point. Returns (SSE, number of coordinates, coordinates)."""
-    bounds = dict(candidate.bounds) if candidate else {}
-    space = SearchSpace(model, bounds=bounds, factor=box_factor)
-    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    x0 = space.initial().clamp(space.lower, space.upper)
-    lm = levenberg_marquardt(problem.residuals, space, x0[None], iters=lm_steps, progress=False)
-    x = lm.x if math.isfinite(lm.cost) else x0
-    space.to_model(x)
-    return _sse(problem, x), space.dim, dict(zip(space.names, x.tolist()))
 
 
 def _rmse_of(model, records, sim) -> float:
@@ -151,7 +147,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     label_conditions : conditions shown in per-condition labels (default: all).
     margin : relative fall of the validation RMSE (training RMSE without validation records) required.
     criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
-    top : candidates refitted with every coordinate free; lm_steps : LM iterations per fit.
+    top : best-ranked candidates compared on validation error; lm_steps : LM iterations per fit.
     noise_sd : known noise level (reported beside the residual RMSE; not used by the rule).
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
         ``identify_options``); else start from its current values.
@@ -197,7 +193,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     diag_before = diagnose(train, _predict(model, train, sim), noise_sd)
     steps, rejected = [], []
     tried = set()
-    scales = Scales.of(train)
+    from ..physics.models import DrivenOscillator
+
+    scales = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
     cond_values = _numeric_conditions(train) if conditions else {}
     if conditions and not isinstance(conditions, bool):
         missing = [c for c in conditions if c not in cond_values]
@@ -212,21 +210,22 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         ranking = []
         for cand in _progress(cands, progress, "rank candidates"):
             try:
-                c_sse, aug, coords = _fit_new(cand, model, train, sim, lm_steps)
+                c_sse, aug, coords = _fit_new(cand, model, train, sim, lm_steps, box_factor)
             except (ValueError, RuntimeError) as exc:  # a candidate that cannot be simulated is skipped
                 c_sse, aug, coords = math.inf, None, {"error": str(exc)}
             ranking.append((cand, c_sse, aug, coords))
         ranking.sort(key=lambda item: item[1])
         evidence = {c.name: (1 - s / sse if math.isfinite(s) and sse > 0 else None) for c, s, _, _ in ranking}
-        finals = []
-        for cand, _sse_new, aug, _coords in ranking[: int(top)]:
-            if aug is None:
-                continue
-            f_sse, f_k, f_coords = _refit_all(aug, cand, train, sim, lm_steps, box_factor)
-            finals.append((cand, aug, f_sse, f_k, f_coords, _rmse_of(aug, scored, sim)))
+        finals = [(cand, aug, c_sse, len(coords), coords, _rmse_of(aug, scored, sim))
+                  for cand, c_sse, aug, coords in ranking[: int(top)] if aug is not None]
         if not finals:
             break
-        cand, aug, f_sse, f_k, f_coords, f_val = min(finals, key=lambda f: f[5])
+        # the lowest validation error; among candidates validation cannot tell apart (within the margin),
+        # the lowest information criterion (the most parsimonious explanation)
+        best_val = min(f[5] for f in finals)
+        close = [f for f in finals if f[5] <= (1 + margin) * best_val]
+        cand, aug, f_sse, f_k, f_coords, f_val = min(
+            close, key=lambda f: information_criterion(f[2], n_train, f[3], criterion))
         f_ic = information_criterion(f_sse, n_train, f_k, criterion)
         accepted = f_val < (1 - margin) * val_rmse and f_ic < ic
         entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,

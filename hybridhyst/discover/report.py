@@ -85,9 +85,9 @@ def _paragraph(step: dict, before_rmse: float, unit: str) -> str:
     ev = step["evidence"]
     fall = (1 - ev["val_rmse_after"] / ev["val_rmse_before"]) * 100 if ev["val_rmse_before"] else math.nan
     kind = "effect" if step["kind"] == "effect" else "parameter function"
-    return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. Alone it "
-            f"explained {_fmt(100 * (ev['explained_share'] or 0))} % of the training residual's sum of squares; "
-            f"refitted with everything free it lowered the validation RMSE from {_fmt(ev['val_rmse_before'])} to "
+    return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. With it "
+            f"(every parameter refitted) the training residual's sum of squares fell by "
+            f"{_fmt(100 * (ev['explained_share'] or 0))} %, the validation RMSE from {_fmt(ev['val_rmse_before'])} to "
             f"{_fmt(ev['val_rmse_after'])} {unit} ({_fmt(fall)} %), and the information criterion from "
             f"{_fmt(next(v for k, v in ev.items() if k.endswith('_before') and not k.startswith('val')))} to "
             f"{_fmt(next(v for k, v in ev.items() if k.endswith('_after') and not k.startswith('val')))}.")

@@ -41,6 +41,9 @@ class BoucWenHysteresis(Effect):
         "n": ParameterSpec(1.0, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),
     }
 
+    # for the discovery loop: β and γ multiply |z|^n with z ~ x, so their size scales like 1/x (at n = 1)
+    discovery_units = {"beta": "1/x", "gamma": "1/x"}
+
     def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):
         if driven_by not in ("motion", "input"):
             raise ValueError(f"bouc_wen: driven_by must be 'motion' or 'input', got {driven_by!r}")

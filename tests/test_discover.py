@@ -1,0 +1,96 @@
+"""The discovery loop: names an undeclared effect, recovers it, adds nothing to a correct model, and
+fails clearly on bad input. The full per-effect recovery table is ``scripts/discovery_recovery.py``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from hybridhyst.data import RecordSet
+from hybridhyst.discover import Scales, diagnose, discover, information_criterion, structure_explained
+from hybridhyst.discover.report import write_discovery
+from hybridhyst.discover.synthetic import CASES, SPLIT, base_model, make_records, true_model
+from hybridhyst.simulate import simulate
+
+NOISE = 0.02
+FEW = ["coulomb", "cubic_stiffness", "backlash", "time_delay"]
+FAST = {"max_steps": 2, "identify_options": {"pop": 16, "generations": 10, "seed": 0}, "progress": False}
+
+
+@pytest.mark.parametrize("effect", ["coulomb", "cubic_stiffness"])
+def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to_the_noise(effect, float64,
+                                                                                         tmp_path):
+    res = discover(make_records(effect, noise_sd=NOISE), base_model(effect), candidates=FEW, split=SPLIT,
+                   conditions=False, noise_sd=NOISE, **FAST)
+    rep = res.report
+    assert [s["effect"] for s in rep["steps"]][:1] == [effect]
+    values, key = CASES[effect]
+    fitted = rep["steps"][0]["new_coordinates"][f"{effect}.{key}"]
+    assert fitted == pytest.approx(values[key], rel=0.05)
+    assert rep["after"]["test_rmse"] <= 1.2 * NOISE < rep["before"]["test_rmse"]
+    assert rep["steps"][0]["evidence"]["bic_after"] < rep["steps"][0]["evidence"]["bic_before"]
+    report = write_discovery(res, tmp_path, title="t", unit="kip")
+    saved = json.loads((tmp_path / "discovery.json").read_text())
+    assert set(saved) >= {"before", "after", "steps", "unexplained"} and saved["steps"][0]["effect"] == effect
+    assert {"test_rmse", "per_condition"} <= set(saved["before"]) and "residual_network" in saved["unexplained"]
+    assert (tmp_path / "residuals.png").exists() and (tmp_path / "loops.png").exists()
+    assert f"**{effect}** (effect)" in report.read_text()
+
+
+def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64):
+    res = discover(make_records(None, noise_sd=NOISE), base_model(None), candidates=FEW, split=SPLIT,
+                   conditions=True, noise_sd=NOISE, **FAST)
+    assert res.report["steps"] == [] and res.report["rejected"]  # the best candidate was tried and refused
+    assert res.report["after"]["test_rmse"] <= 1.2 * NOISE
+
+
+def test_a_parameter_that_follows_a_condition_is_found(float64):
+    """Data whose friction level grows with amplitude: the loop makes Fc a linear function of it."""
+    records = make_records("coulomb", noise_sd=NOISE)
+    model = true_model("coulomb")
+    out = []
+    for r in records:
+        with torch.no_grad():
+            model.effects["coulomb"].params["Fc"].value.fill_(0.3 + 0.4 * r.conditions["amplitude_in"])
+        y = simulate(model, np.asarray(r.x)[None], t=np.asarray(r.t), substeps=8)[0, :, 0].detach().numpy()
+        out.append(type(r)(name=r.name, t=r.t, x=r.x, y=y + NOISE * np.random.default_rng(1).standard_normal(len(y)),
+                           conditions=r.conditions, units=r.units))
+    start = true_model("coulomb")  # the right law, but one friction level for all tests
+    res = discover(RecordSet(out), start, candidates=[], split=SPLIT, conditions=["amplitude_in"], noise_sd=NOISE,
+                   **FAST)
+    steps = res.report["steps"]
+    assert steps and steps[0]["effect"] == "coulomb.Fc~amplitude_in"
+    assert steps[0]["new_coordinates"]["coulomb.Fc.c1"] == pytest.approx(0.4, rel=0.15)
+
+
+def test_diagnostics_measure_structure_and_whiteness():
+    rng = np.random.default_rng(0)
+    f = rng.uniform(-1, 1, 4000)
+    assert structure_explained(f, f**2 + 0.01 * rng.standard_normal(4000)) > 0.95
+    assert structure_explained(f, rng.standard_normal(4000)) < 0.02
+    records = make_records(None, noise_sd=NOISE)
+    preds = [r.y - NOISE * rng.standard_normal(len(r)) for r in records]  # white residual
+    d = diagnose(records.records, preds, NOISE)
+    assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
+    assert information_criterion(1.0, 100, 3) < information_criterion(1.0, 100, 4)
+    assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
+
+
+def test_bad_input_is_a_clear_error(float64):
+    records = make_records(None, noise_sd=NOISE)
+    with pytest.raises(ValueError, match="unknown candidate effect"):
+        discover(records, base_model(None), candidates=["friction_of_doom"], split=SPLIT, **FAST)
+    with pytest.raises(ValueError, match="leaves no training records"):
+        discover(records, base_model(None), split={"held_out": {"frequency_hz": [1.0, 1.5, 2.0]}}, **FAST)
+    short = RecordSet([r.slice(stop=8) for r in records])
+    with pytest.raises(ValueError, match="discovery"):
+        discover(short, base_model(None), split=SPLIT, **FAST)
+    with pytest.raises(ValueError, match="not numeric conditions"):
+        discover(records, base_model(None), split=SPLIT, conditions=["tension"], **FAST)
+    from hybridhyst.physics.build import build_model
+
+    with pytest.raises(ValueError, match="unknown effect 'dahll'"):
+        build_model("constitutive", {"f": {"effect": "dahll"}})
