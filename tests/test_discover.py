@@ -94,3 +94,24 @@ def test_bad_input_is_a_clear_error(float64):
 
     with pytest.raises(ValueError, match="unknown effect 'dahll'"):
         build_model("constitutive", {"f": {"effect": "dahll"}})
+
+
+def test_discover_app_on_the_measured_brfd_data(tmp_path):
+    from hydra import compose, initialize_config_dir
+
+    from hybridhyst.cli import discover as app
+    from hybridhyst.cli.common import CONF_DIR
+
+    overrides = [f"run_dir={tmp_path}", "progress=false", "discover.candidates=[asymmetric_coulomb]",
+                 "discover.conditions=false", "discover.max_steps=1", "discover.identify.pop=8",
+                 "discover.identify.generations=3", "discover.lm_steps=10", "thinning.samples_per_cycle=16"]
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose(config_name="discover", overrides=overrides)
+        wrong = compose(config_name="discover", overrides=[*overrides, "experiment=seed001_free_vibration"])
+    report = app.run(cfg)
+    saved = json.loads((tmp_path / "discovery.json").read_text())
+    assert saved["steps"] == report["steps"] and len(saved["records"]["test"]) == 4  # the earthquakes
+    assert saved["after"]["val_rmse"] <= saved["before"]["val_rmse"]
+    assert (tmp_path / "report.md").read_text().startswith("# Discovery: BRFD")
+    with pytest.raises(ValueError, match="is for hybridhyst-simulate, not hybridhyst-discover"):
+        app.run(wrong)
