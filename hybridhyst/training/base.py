@@ -252,14 +252,17 @@ class NominalMixin:
         for key, v in values.items():
             self.log(f"phys/{key} [{units.get(key, '')}]", v)
 
-    def flat(self, batch, out=None):
-        """Masked collocation rows: inputs, times and the nominal's parameter values ``(N,)`` (detached: the
-        physics residual regularises the networks, not the nominal)."""
+    def flat(self, batch, detach: bool = True):
+        """Masked collocation rows: inputs, times and the nominal's parameter values ``(N,)``; ``detach``
+        makes the parameters constants (the hybrid: λ_phys regularises the branch, the data loss trains the
+        nominal) or keeps them trainable (the standard PINN identifies the nominal through the residual)."""
         m = batch["mask"].reshape(-1) > 0
         B, T = batch["u"].shape
         rows = {k: batch[k].reshape(-1)[m].to(self.dtype) for k in ("t", "u", "du", "ddu", "dddu")}
         cond = {k: v.repeat_interleave(T)[m] for k, v in self.conditions(batch).items()}
-        P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in self.nominal.evaluate(cond, int(m.sum())).items()}
+        P = self.nominal.evaluate(cond, int(m.sum()))
+        if detach:
+            P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in P.items()}
         return m, rows, P
 
 

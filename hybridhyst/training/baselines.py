@@ -92,7 +92,7 @@ class StdPINNModule(NominalMixin, SequenceModule):
         return super().training_step(batch, batch_idx)
 
     def physics_loss(self, batch, out):
-        m, rows, P = self.flat(batch)
+        m, rows, P = self.flat(batch, detach=False)  # the inverse PINN: the residual trains the nominal too
         tau = torch.zeros_like(rows["t"], requires_grad=True)
         inp = taylor_inputs(rows["u"], rows["du"], rows["ddu"], tau, rows["dddu"])
         one = {k: v[:, None] for k, v in rows.items()}

@@ -19,8 +19,10 @@ derivatives along the measured excitation (the jerk u⃛ is needed for the secon
   For a constitutive nominal the residual therefore equals the branch's correction: λ_phys is then a
   penalty on the correction's size (how far the prediction may leave the nominal law).
 
-The nominal's parameters and states enter the physics residual as constants (detached): λ_phys acts on
-the networks, not on the nominal (which the data loss trains when it is not frozen).
+In the hybrid the nominal's parameters and states enter the physics residual as constants (detached):
+λ_phys acts on the branch, not on the nominal (which the data loss trains when it is not frozen). In the
+standard PINN the residual is the only link to the nominal, so its parameters stay trainable there (an
+inverse PINN, unless frozen).
 
 Residuals are divided by the training scale of the quantity (output sd, or state-rate scale) so that
 ``λ_phys`` weighs comparable numbers (``w_data = 1``, seed 003).
