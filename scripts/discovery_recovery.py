@@ -27,6 +27,8 @@ NOISE, TOL = 0.02, 0.10  # noise sd [kip]; relative tolerance on the key paramet
 # RK4 sub-steps per sample: the presliding states (Dahl, LuGre) relax at σ0|v|/Fc ≈ 600 /s at 2 Hz, 1.5 in,
 # beyond RK4's stability at one step per sample (h = 5 ms)
 SUBSTEPS = 4
+# the play operator's gap state relaxes at |v| / eps: the backlash case needs finer steps still
+CASE_SUBSTEPS = {"backlash": 8}  # eps = 0.01 in: |v| h / eps ≈ 1.2 at 8 sub-steps
 README = ROOT / "experiments" / "discovery_recovery" / "README.md"
 
 
@@ -40,7 +42,7 @@ def run_case(effect: str | None, backend: str) -> dict:
     t0 = time.perf_counter()
     records = make_records(effect, noise_sd=NOISE)
     res = discover(records, base_model(effect), split=SPLIT, noise_sd=NOISE, backend=backend, progress=False,
-                   max_steps=3, identify_options={"seed": 0}, substeps=SUBSTEPS)
+                   max_steps=3, identify_options={"seed": 0}, substeps=CASE_SUBSTEPS.get(effect, SUBSTEPS))
     rep = res.report
     named = [s["effect"] for s in rep["steps"]]
     out = {"effect": effect or "none", "named": named, "wall_s": time.perf_counter() - t0,

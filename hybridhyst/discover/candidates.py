@@ -102,7 +102,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
     Amplitude-like parameters (those with a neutral value, and forces [F]) start small (0.05 and 0.3 of
     their scale); shape parameters at their scale (or default when dimensionless) and 10× that. An effect
     may give ``discovery_units = {parameter: unit template}`` for parameters whose literal unit is "-" but
-    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x").
+    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x"), and ``discovery_constants =
+    {argument: (unit template, factor)}`` for constructor constants set from the data (backlash's
+    smoothing width: 2 % of the displacement scale).
     """
     present = {e.name for e in model.effects.values()}
     out = []
@@ -132,9 +134,12 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
                  for p in cls.specs}
         starts.append(mixed)
 
-        def build(m, key=key, cls=cls, start=starts[0]):
+        constants = {name: factor * scales.of_unit(unit)
+                     for name, (unit, factor) in getattr(cls, "discovery_constants", {}).items()}
+
+        def build(m, key=key, cls=cls, start=starts[0], constants=constants):
             values = {k.split(".", 1)[1]: v for k, v in start.items()}
-            return _placed(m, key, cls(**values))
+            return _placed(m, key, cls(**constants, **values))
 
         doc = (cls.__doc__ or name).strip().splitlines()[0]
         out.append(Candidate(name=name, kind="effect", build_fn=build, free=list(bounds), bounds=bounds,

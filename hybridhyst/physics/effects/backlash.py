@@ -57,6 +57,9 @@ class Backlash(Effect):
         "r": ParameterSpec(0.0, "x", (0.0, 1e6), "nonnegative", neutral=0.0, doc="half-width of the play"),
     }
 
+    # for the discovery loop: a smoothing width of 2 % of the data's displacement scale (resolvable in time)
+    discovery_constants = {"eps": ("x", 0.02)}
+
     def __init__(self, eps: float = 1e-3, **values):
         super().__init__(**values)
         if not math.isfinite(eps) or eps <= 0:
