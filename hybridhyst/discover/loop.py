@@ -116,6 +116,19 @@ def _fit_new(candidate: Candidate, model, train, sim, lm_steps, box_factor) -> t
     return lm.cost * problem.n_samples, aug, dict(zip(space.names, lm.x.tolist()))
 
 
+def _polish(model, train, sim, lm_steps, box_factor) -> tuple[float, int]:
+    """Refit the current model (every coordinate, LM from its values) so that its training error is
+    converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
+    for finishing the previous fit. Returns (SSE, number of coordinates); the model is updated in place."""
+    space = SearchSpace(model, factor=box_factor)
+    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    x0 = space.initial().clamp(space.lower, space.upper)
+    lm = levenberg_marquardt(problem.residuals, space, x0[None], iters=lm_steps, progress=False)
+    x = lm.x if math.isfinite(lm.cost) and lm.cost <= _sse(problem, x0) / problem.n_samples else x0
+    space.to_model(x)
+    return _sse(problem, x), space.dim
+
+
 def _rmse_of(model, records, sim) -> float:
     return _metrics(records, _predict(model, records, sim)).get("rmse", math.inf) if records else math.inf
 
@@ -174,19 +187,16 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     n_train = sum(len(r) for r in train)
     for r in train:
         r.require_samples(16, "discovery (identifying a candidate effect)")
-    initial = None
     model = nominal
     if fit_nominal:
-        opts = {"method": "de", "pop": 24, "generations": 20, "restarts": 4, **dict(identify_options or {})}
+        opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(identify_options or {})}
         identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
                  substeps=substeps, **opts)
     import copy
 
-    initial = copy.deepcopy(model)
     scored = val or train
-    space = SearchSpace(model, factor=box_factor)
-    base_problem = RecordsProblem(space, train, method=method, substeps=substeps, backend=backend)
-    sse, k = _sse(base_problem, space.initial()), space.dim
+    sse, k = _polish(model, train, sim, lm_steps, box_factor)
+    initial = copy.deepcopy(model)  # "before": the nominal as fitted (identified, then polished)
     ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
     before = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
               for s, rs in (("train", train), ("val", val), ("test", test))}
@@ -243,7 +253,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             break
         steps.append(entry)
         tried.add(cand.name)
-        model, sse, k, ic, val_rmse = aug, f_sse, f_k, f_ic, f_val
+        model = aug
+        sse, k = _polish(model, train, sim, lm_steps, box_factor)
+        ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
     after = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
              for s, rs in (("train", train), ("val", val), ("test", test))}
     diag_after = diagnose(train, _predict(model, train, sim), noise_sd)
