@@ -199,3 +199,19 @@ def test_cli_run_writes_summary(tmp_path):
     assert set(saved["per_record"]) == {"1:3_p0.05"} and saved["rmse"] > 0
     assert saved["parameters"]["hysteresis"]["k"]["unit"] == "Nm/deg"
     assert (tmp_path / "loops.png").stat().st_size > 0 and (tmp_path / "report.md").exists()
+
+
+def test_levenberg_marquardt_survives_rows_that_diverge():
+    """A restart whose simulation diverges (NaN residuals and Jacobian) gets a zero step; the others go on."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([0.0, 0.0], [4.0, 4.0])
+    target = torch.tensor([1.0, 2.0], dtype=torch.float64)
+
+    def residual_rows(X):
+        r = (X - target) * torch.tensor([1.0, 3.0], dtype=torch.float64)
+        return torch.where((X[:, :1] > 3.0), torch.full_like(r, float("nan")), r)
+
+    starts = torch.tensor([[3.5, 3.5], [0.5, 0.5]])  # the first row is NaN from the start
+    res = levenberg_marquardt(residual_rows, box, starts, iters=30, progress=False)
+    assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12

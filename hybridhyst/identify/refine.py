@@ -154,6 +154,23 @@ def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h
     return (R - r0[:, None]).transpose(1, 2) / h
 
 
+def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
+    """Damped Gauss–Newton steps ``(K, D)``; a row whose residuals or Jacobian are not finite (a diverged
+    simulation) or whose system is singular gets a zero step instead of stopping the batch."""
+    K, _, D = J.shape
+    bad = ~(torch.isfinite(J).all(dim=(1, 2)) & torch.isfinite(r).all(dim=1))
+    J = torch.where(bad[:, None, None], torch.zeros_like(J), J)
+    r = torch.where(bad[:, None], torch.zeros_like(r), r)
+    JtJ = J.transpose(1, 2) @ J
+    g = (J.transpose(1, 2) @ r[..., None])[..., 0]
+    eye = torch.eye(D, dtype=J.dtype).expand(K, D, D)
+    A = JtJ + lam[:, None, None] * (torch.diag_embed(JtJ.diagonal(dim1=1, dim2=2)) + 1e-12 * eye)
+    A = torch.where(bad[:, None, None], eye, A)
+    step, info = torch.linalg.solve_ex(A, -g[..., None])
+    step = step[..., 0]
+    return torch.where(((info != 0) | bad)[:, None] | ~torch.isfinite(step), torch.zeros_like(step), step)
+
+
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
                         iters: int = 30, h: float = 1e-6, target: float | None = None,
                         progress: bool = True) -> RefineResult:
@@ -175,10 +192,7 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
                 break
-            JtJ = J.transpose(1, 2) @ J
-            g = (J.transpose(1, 2) @ r[..., None])[..., 0]
-            A = JtJ + lam[:, None, None] * (torch.diag_embed(JtJ.diagonal(dim1=1, dim2=2)) + 1e-12 * torch.eye(D))
-            step = torch.linalg.solve(A.nan_to_num(), -g.nan_to_num()[..., None])[..., 0]
+            step = _lm_step(J, r, lam)
             r_new = _lm_residuals(residual_rows, space, W + step)
             new = r_new.square().mean(dim=1).nan_to_num(nan=math.inf)
             ok = new < cost
