@@ -32,7 +32,8 @@ class BoucWenHysteresis(Effect):
     source = "Bouc 1967; Wen 1976; seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
     specs = {
         "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "real", doc="ratio of elastic to total stiffness"),
-        "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", doc="stiffness"),
+        "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", neutral=0.0,
+                           doc="stiffness (at k = 0, with k1 = 0, the effect adds nothing)"),
         "k1": ParameterSpec(0.0, "F/x^3", (-1e9, 1e9), "real", neutral=0.0, doc="cubic stiffness (seed 001)"),
         "D": ParameterSpec(1.0, "-", (1e-3, 1e3), "positive", doc="rate divisor (yield scale)"),
         "A": ParameterSpec(1.0, "-", (0.0, 1e6), "real", doc="hysteretic gain"),
