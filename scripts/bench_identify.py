@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_simulate import command_line, machine_info, machine_markdown, write_json, write_readme_section  # noqa: E402
+from bench_simulate import command_line, emit, machine_info, machine_markdown  # noqa: E402
 
 MIXTURE, PRESSURE, NOISE_SD = "1:3", 0.05, 0.2
 FLOOR = 1.02 * NOISE_SD
@@ -342,12 +342,7 @@ def main(argv=None) -> dict:
         print("(4) joint identification over pressure", flush=True)
         result["joint"] = bench_joint(args.quick)
     result["finished_utc"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    if args.json:
-        write_json(args.json, result)
-    if args.write_readme:
-        write_readme_section("bench_identify", report_markdown(result))
-    print(report_markdown(result))
-    return result
+    return emit(args, "bench_identify", result, report_markdown(result))
 
 
 if __name__ == "__main__":

@@ -310,15 +310,20 @@ def run(args: argparse.Namespace) -> dict:
             "scaling": scaling_summary(rows), "finished_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
 
 
-def main(argv=None) -> dict:
-    args = parse_args(argv)
-    result = run(args)
+def emit(args, section: str, result: dict, markdown: str) -> dict:
+    """Write ``--json`` and the ``--write-readme`` section as asked, print the Markdown; shared by the benches."""
     if args.json:
         write_json(args.json, result)
     if args.write_readme:
-        write_readme_section("bench_simulate", report_markdown(result))
-    print(report_markdown(result))
+        write_readme_section(section, markdown)
+    print(markdown)
     return result
+
+
+def main(argv=None) -> dict:
+    args = parse_args(argv)
+    result = run(args)
+    return emit(args, "bench_simulate", result, report_markdown(result))
 
 
 if __name__ == "__main__":

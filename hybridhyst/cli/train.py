@@ -181,8 +181,7 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
 def _physics(module) -> dict:
     if not hasattr(module, "nominal"):
         return {}
-    units = module.nominal_units()
-    return {k: {"value": v, "unit": units.get(k, "")} for k, v in module.nominal_values().items()}
+    return {k: {"value": v, "unit": module.nominal_unit(k)} for k, v in module.nominal_values().items()}
 
 
 def _log_hparams(trainer, cfg, result):

@@ -132,7 +132,7 @@ class _Sequences(Dataset):
         mask = torch.ones(e - s, dtype=torch.float64)
         if self.window is not None and s > 0:
             mask[: self.warmup] = 0.0  # the state starts from rest: its first samples are not scored
-        dy = np.gradient(p["y"][max(s, 0): s + 3], p["t"][max(s, 0): s + 3])[0] if e - s >= 3 else 0.0
+        dy = np.gradient(p["y"][s: s + 3], p["t"][s: s + 3])[0] if e - s >= 3 else 0.0
         item.update(mask=mask, cond=torch.as_tensor(self.cond[i], dtype=torch.float64),
                     y0=torch.tensor([p["y"][s], dy], dtype=torch.float64), index=torch.tensor(i),
                     start=torch.tensor(s))

@@ -4,7 +4,6 @@ search for them starts (from the data's scales and the parameters' unit template
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -165,7 +164,7 @@ def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> li
                 width = max(abs(v), 1e-12)
                 name = f"{key}.{pname}~{cond}"
 
-                def build(m, key=key, pname=pname, cond=cond, v=v, mid=mid):
+                def build(m, key=key, pname=pname, cond=cond, v=v):
                     new = m.with_effects(dict(m.effects.items()))
                     new.effects[key].params[pname] = Linear(slope=0.0, intercept=v, condition=cond).to(
                         next(new.parameters()).dtype)
@@ -191,6 +190,3 @@ def library_candidates(model, scales: Scales, conditions: Mapping[str, Sequence[
         out += condition_candidates(model, conditions)
     return out
 
-
-def finite(x: float) -> bool:
-    return isinstance(x, (int, float)) and math.isfinite(x)

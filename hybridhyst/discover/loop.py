@@ -65,14 +65,14 @@ def _predict(model, records, sim) -> list[np.ndarray]:
 
 
 def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
-    if not records:
-        return {}
-    err = np.concatenate([np.asarray(r.y) - p for r, p in zip(records, preds)])
-    per: dict[str, list] = {}
-    for r, p in zip(records, preds):
-        per.setdefault(_label(r, labels), []).append(np.asarray(r.y) - p)
-    rmse = float(np.sqrt(np.mean(err**2))) if np.all(np.isfinite(err)) else math.inf
-    return {"rmse": rmse, "per_condition": {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in per.items()}}
+    """Pooled RMSE and RMSE per condition label (``training.evaluate.split_metrics``); {} without records."""
+    from ..training.evaluate import split_metrics
+
+    out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p}
+                         for r, p in zip(records, preds)])
+    if out:
+        out["per_condition"] = {k: v["rmse"] for k, v in out["per_condition"].items()}
+    return out
 
 
 def _label(r: Record, names: Sequence[str] | None = None) -> str:
@@ -195,12 +195,18 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     import copy
 
     scored = val or train
+    splits = {"train": train, "val": val, "test": test}
+
+    def evaluate(m):  # predictions of every split (simulated once) and their metrics
+        preds = {s: _predict(m, rs, sim) for s, rs in splits.items()}
+        return preds, {s: _metrics(splits[s], preds[s], label_conditions) for s in splits}
+
     sse, k = _polish(model, train, sim, lm_steps, box_factor)
     initial = copy.deepcopy(model)  # "before": the nominal as fitted (identified, then polished)
-    ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
-    before = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
-              for s, rs in (("train", train), ("val", val), ("test", test))}
-    diag_before = diagnose(train, _predict(model, train, sim), noise_sd)
+    preds_before, before = evaluate(initial)
+    ic = information_criterion(sse, n_train, k, criterion)
+    val_rmse = before["val" if val else "train"]["rmse"]
+    diag_before = diagnose(train, preds_before["train"], noise_sd)
     steps, rejected = [], []
     tried = set()
     from ..physics.models import DrivenOscillator
@@ -246,7 +252,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  "parameters": {k: v for k, v in _parameters(aug).items()},
                  "new_coordinates": {n: f_coords.get(n) for n in cand.free},
                  "train_rmse": math.sqrt(f_sse / n_train) if math.isfinite(f_sse) else math.inf,
-                 "val_rmse": _rmse_of(aug, val, sim) if val else None,
+                 "val_rmse": f_val if val else None,
                  "test_rmse": _rmse_of(aug, test, sim) if test else None, "accepted": accepted}
         if not accepted:
             rejected.append(entry)
@@ -256,9 +262,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         model = aug
         sse, k = _polish(model, train, sim, lm_steps, box_factor)
         ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
-    after = {s: _metrics(rs, _predict(model, rs, sim), label_conditions)
-             for s, rs in (("train", train), ("val", val), ("test", test))}
-    diag_after = diagnose(train, _predict(model, train, sim), noise_sd)
+    preds_after, after = evaluate(model)
+    diag_after = diagnose(train, preds_after["train"], noise_sd)
     report = {
         "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
                    "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
@@ -270,8 +275,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": noise_sd,
                         "dependence": diag_after["dependence"], "whiteness": diag_after["whiteness"],
                         "where": diag_after["where"],
-                        "residual_network": residual_network(train, _predict(model, train, sim), val or None,
-                                                             _predict(model, val, sim) if val else None)},
+                        "residual_network": residual_network(train, preds_after["train"], val or None,
+                                                             preds_after["val"] or None)},
         "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
                      "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
@@ -279,10 +284,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
         "wall_s": time.perf_counter() - start,
     }
-    preds = {"before": {s: _predict(initial, rs, sim) for s, rs in (("train", train), ("val", val), ("test", test))},
-             "after": {s: _predict(model, rs, sim) for s, rs in (("train", train), ("val", val), ("test", test))}}
-    return DiscoveryResult(model=model, report=report, predictions=preds,
-                           splits={"train": train, "val": val, "test": test}, initial_model=initial)
+    return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
+                           splits=splits, initial_model=initial)
 
 
 def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:

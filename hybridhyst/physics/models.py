@@ -105,13 +105,8 @@ class NominalModel(nn.Module):
         """
         import copy
 
-        new = copy.copy(self)
-        nn.Module.__init__(new)
-        for key, value in vars(self).items():
-            if not key.startswith("_"):
-                setattr(new, key, value)
-        type(self)._init_layout(new, nn.ModuleDict({k: copy.deepcopy(e) for k, e in effects.items()}))
-        new.structure_params = copy.deepcopy(self.structure_params)
+        new = copy.deepcopy(self)
+        new._init_layout(nn.ModuleDict({k: copy.deepcopy(e) for k, e in effects.items()}))
         return new
 
     def _init_layout(self, effects: nn.ModuleDict) -> None:

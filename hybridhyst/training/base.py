@@ -233,12 +233,12 @@ class NominalMixin:
         rows = sorted({tuple(c) for c in dm.cond["train"]})
         return [dict(zip(self.condition_names, r)) for r in rows]
 
-    def nominal_units(self) -> dict[str, str]:
+    def nominal_unit(self, key: str) -> str:
+        """The unit of a ``nominal_values`` key (``"dahl.Fc"`` or ``"dahl.Fc@amplitude_in=1"``)."""
         from ..cli.common import parameter_table
 
-        units = {f"{e}.{p}": info["unit"] for e, params in parameter_table(self.nominal).items()
-                 for p, info in params.items()}
-        return {k: units.get(k.split("@")[0], "") for k in self.nominal_values()} | units
+        effect, param = key.split("@")[0].split(".", 1)
+        return parameter_table(self.nominal).get(effect, {}).get(param, {}).get("unit", "")
 
     def on_train_batch_end(self, outputs, batch, batch_idx):
         from ..physics.parameters import project_to_bounds
@@ -248,9 +248,8 @@ class NominalMixin:
     def on_train_epoch_end(self):
         values = self.nominal_values()
         self.history.append({"epoch": int(self.current_epoch), **values})
-        units = self.nominal_units()
         for key, v in values.items():
-            self.log(f"phys/{key} [{units.get(key, '')}]", v)
+            self.log(f"phys/{key} [{self.nominal_unit(key)}]", v)
 
     def flat(self, batch, detach: bool = True):
         """Masked collocation rows: inputs, times and the nominal's parameter values ``(N,)``; ``detach``
