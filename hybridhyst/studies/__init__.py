@@ -1,0 +1,34 @@
+"""Reproductions of the seed papers as studies run by ``hybridhyst-study experiment=<name>``.
+
+A study is a function ``study(options: dict, out: StudyOutput) -> dict`` in one module per seed paper; it
+uses the library (physics, simulate, identify, training, analysis) and writes its tables and figures
+through ``out``. The returned dict becomes ``summary.json``. ``options["reduced"]`` asks for the small
+version that CI runs (same code path, fewer conditions/epochs). Studies are registered by name in
+``STUDIES`` ("module:function", imported on use so that one study's dependencies never slow another).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+from .output import StudyOutput as StudyOutput
+
+STUDIES: dict[str, str] = {
+    "seed000_pinn_identification": "seed000:pinn_identification",
+    "seed001_vpptd_dynamics": "seed001:vpptd_dynamics",
+    "seed002_loop_metrics": "seed002:loop_metrics",
+    "seed003_hybrid_pinn_piezo": "seed003:hybrid_pinn_piezo",
+    "seed004_symmetric_damper": "seed004:symmetric_damper",
+}
+
+
+def get_study(name: str) -> Callable[[dict, StudyOutput], dict]:
+    """The study function registered as ``name`` (a clear error naming the known studies otherwise)."""
+    if name not in STUDIES:
+        raise ValueError(f"unknown study {name!r}; choose one of {sorted(STUDIES)}")
+    module, func = STUDIES[name].split(":")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), func)
+
+
+__all__ = ["STUDIES", "StudyOutput", "get_study"]
