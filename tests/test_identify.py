@@ -215,3 +215,20 @@ def test_levenberg_marquardt_survives_rows_that_diverge():
     starts = torch.tensor([[3.5, 3.5], [0.5, 0.5]])  # the first row is NaN from the start
     res = levenberg_marquardt(residual_rows, box, starts, iters=30, progress=False)
     assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
+
+
+def test_levenberg_marquardt_moves_only_free_coordinates():
+    """``free`` masks coordinates: held ones keep each row's start, free ones reach their conditional optimum."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([-4.0, -4.0], [4.0, 4.0])
+
+    def residual_rows(X):  # optimum of x0 given x1 is x0 = 1 + 0.5 x1; joint optimum (1, 2)
+        return torch.stack([X[:, 0] - 1.0 - 0.5 * X[:, 1], X[:, 1] - 2.0], dim=1)
+
+    starts = torch.tensor([[0.0, -1.0], [3.0, 1.0]], dtype=torch.float64)
+    res = levenberg_marquardt(residual_rows, box, starts, iters=40, free=torch.tensor([True, False]), progress=False)
+    assert torch.allclose(res.X[:, 1], starts[:, 1])
+    assert torch.allclose(res.X[:, 0], 1.0 + 0.5 * starts[:, 1], atol=1e-6)
+    with pytest.raises(ValueError, match="no free coordinate"):
+        levenberg_marquardt(residual_rows, box, starts, free=torch.tensor([False, False]), progress=False)

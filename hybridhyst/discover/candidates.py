@@ -103,7 +103,8 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
     may give ``discovery_units = {parameter: unit template}`` for parameters whose literal unit is "-" but
     whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x"), and ``discovery_constants =
     {argument: (unit template, factor)}`` for constructor constants set from the data (backlash's
-    smoothing width: 2 % of the displacement scale).
+    smoothing width: 2 % of the displacement scale), and ``discovery_fixed = {parameter: value}`` for
+    parameters held fixed in the candidate (Bouc–Wen is added in its identifiable normalised form).
     """
     present = {e.name for e in model.effects.values()}
     out = []
@@ -116,7 +117,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         key = name if name not in model.effects else f"{name}_added"
         bounds, low, high = {}, {}, {}
         hints = getattr(cls, "discovery_units", {})
-        for pname, spec in cls.specs.items():
+        held = dict(getattr(cls, "discovery_fixed", {}))
+        free = {p: spec for p, spec in cls.specs.items() if p not in held}
+        for pname, spec in free.items():
             scale = scales.of_unit(hints.get(pname, spec.unit))
             amplitude = spec.neutral is not None or spec.unit == "F"
             if scale is None:
@@ -129,16 +132,16 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
             a, b = min(max(a, lo), hi), min(max(b, lo), hi)
             bounds[f"{key}.{pname}"], low[pname], high[pname] = (lo, hi), a, b
         starts = [{f"{key}.{p}": v for p, v in low.items()}, {f"{key}.{p}": v for p, v in high.items()}]
-        mixed = {f"{key}.{p}": (high[p] if cls.specs[p].neutral is not None or cls.specs[p].unit == "F" else low[p])
-                 for p in cls.specs}
+        mixed = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else low[p])
+                 for p, spec in free.items()}
         starts.append(mixed)
 
         constants = {name: factor * scales.of_unit(unit)
                      for name, (unit, factor) in getattr(cls, "discovery_constants", {}).items()}
 
-        def build(m, key=key, cls=cls, start=starts[0], constants=constants):
+        def build(m, key=key, cls=cls, start=starts[0], constants=constants, held=held):
             values = {k.split(".", 1)[1]: v for k, v in start.items()}
-            return _placed(m, key, cls(**constants, **values))
+            return _placed(m, key, cls(**constants, **values, **held, fixed=sorted(held)))
 
         doc = (cls.__doc__ or name).strip().splitlines()[0]
         out.append(Candidate(name=name, kind="effect", build_fn=build, free=list(bounds), bounds=bounds,

@@ -146,11 +146,14 @@ def _lm_residuals(residual_rows, space: Box, W: torch.Tensor) -> torch.Tensor:
         return residual_rows(space.from_unit(torch.sigmoid(W))).to(torch.float64)
 
 
-def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h: float) -> torch.Tensor:
-    """Forward-difference Jacobians ``(K, M, D)`` w.r.t. the logits at W ``(K, D)`` (residuals r0 known)."""
+def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h: float,
+                 free: torch.Tensor) -> torch.Tensor:
+    """Forward-difference Jacobians ``(K, M, F)`` w.r.t. the ``free`` logits (F of D) at W ``(K, D)``
+    (residuals r0 known)."""
     K, D = W.shape
-    Wall = (W[:, None, :] + torch.eye(D, dtype=W.dtype)[None] * h).reshape(K * D, D)
-    R = _lm_residuals(residual_rows, space, Wall).reshape(K, D, -1)
+    E = torch.eye(D, dtype=W.dtype)[free]
+    Wall = (W[:, None, :] + E[None] * h).reshape(K * E.shape[0], D)
+    R = _lm_residuals(residual_rows, space, Wall).reshape(K, E.shape[0], -1)
     return (R - r0[:, None]).transpose(1, 2) / h
 
 
@@ -173,26 +176,33 @@ def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tenso
 
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
                         iters: int = 30, h: float = 1e-6, target: float | None = None,
-                        progress: bool = True) -> RefineResult:
+                        free: torch.Tensor | None = None, progress: bool = True) -> RefineResult:
     """Batched Levenberg–Marquardt on the box logits: each row its own damping, one call per iteration.
 
     ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Jacobians are forward
     differences (K rows per trial step, D more per accepted row), so the step is robust in the ill-conditioned
     valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order methods crawl.
+    ``free`` : ``(D,)`` booleans, the coordinates that may move (default all); the others keep each row's
+    start value (the discovery loop re-balances a fitted model against a new effect's start this way).
     """
     starts = torch.as_tensor(starts, dtype=torch.float64).reshape(-1, space.dim)
     W = torch.logit(space.to_unit(starts).clamp(_EDGE, 1 - _EDGE))
     K, D = W.shape
+    free = torch.ones(D, dtype=torch.bool) if free is None else torch.as_tensor(free, dtype=torch.bool).reshape(D)
+    if not bool(free.any()):
+        raise ValueError("levenberg_marquardt: no free coordinate (free is all False)")
+    F = int(free.sum())
     lam = torch.full((K,), 1e-3, dtype=torch.float64)
     r = _lm_residuals(residual_rows, space, W)
-    J = _lm_jacobian(residual_rows, space, W, r, h)
+    J = _lm_jacobian(residual_rows, space, W, r, h, free)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
-    history, evals = [float(cost.min())], K * (D + 1)
+    history, evals = [float(cost.min())], K * (F + 1)
     with _progress(iters, "levenberg-marquardt", progress) as bar:
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
                 break
-            step = _lm_step(J, r, lam)
+            step = torch.zeros_like(W)
+            step[:, free] = _lm_step(J, r, lam)
             r_new = _lm_residuals(residual_rows, space, W + step)
             new = r_new.square().mean(dim=1).nan_to_num(nan=math.inf)
             ok = new < cost
@@ -200,8 +210,8 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             if bool(ok.any()):  # Jacobians only where the step was accepted
                 W[ok] = W[ok] + step[ok]
                 r[ok], cost[ok] = r_new[ok], new[ok]
-                J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h)
-                evals += int(ok.sum()) * D
+                J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h, free)
+                evals += int(ok.sum()) * F
             lam = torch.where(ok, lam / 3, lam * 4).clamp(1e-12, 1e12)
             history.append(float(cost.min()))
             bar.update(1)

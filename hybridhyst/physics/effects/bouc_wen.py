@@ -44,6 +44,10 @@ class BoucWenHysteresis(Effect):
 
     # for the discovery loop: β and γ multiply |z|^n with z ~ x, so their size scales like 1/x (at n = 1)
     discovery_units = {"beta": "1/x", "gamma": "1/x"}
+    # ... and is added in its identifiable normalised form F = k z, ż = v − β|v||z|^(n−1)z − γ v|z|^n:
+    # the elastic share α k x and the cubic k1 x³ are other candidates (linear_stiffness, cubic_stiffness),
+    # and D, A only rescale z against k (DESIGN.md "Units"), so they are held at 1.
+    discovery_fixed = {"alpha": 0.0, "k1": 0.0, "D": 1.0, "A": 1.0}
 
     def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):
         if driven_by not in ("motion", "input"):
