@@ -1,9 +1,8 @@
 """``hybridhyst-simulate``: run a model config on an input and write its predictions and a summary.
 
 Inputs (``input.kind``): ``sine`` (x = A sin 2πft), ``free_vibration`` (an oscillator released from
-``input.initial_state`` with no drive) or ``data`` (the records of the ``data`` config).
-A ``study`` (set by an experiment config, e.g. ``experiment=seed001_free_vibration``) replaces the plain
-simulation by a named study whose result is the summary.
+``input.initial_state`` with no drive) or ``data`` (the records of the ``data`` config). Seed-paper
+studies (e.g. seed 001's Table 2) are run by ``hybridhyst-study`` (``hybridhyst.studies``).
 """
 
 from __future__ import annotations
@@ -30,8 +29,7 @@ from .common import (
     write_json,
 )
 
-__all__ = ["STUDIES", "main", "run"]
-
+__all__ = ["main", "run"]
 
 
 def _output_names(model) -> list[str]:
@@ -98,50 +96,21 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     return frames, info
 
 
-def _seed001_free_vibration(cfg) -> dict:
-    """Seed 001 Table 2: free-vibration frequency of the two-mass rig per mixture and underpressure."""
-    from tqdm.auto import tqdm
-
-    from ..physics.compositions import MIXTURES, TABLE2_HZ, free_vibration_frequencies
-
-    opts = cfg.get("study_options") or {}
-    mixtures = list(opts.get("mixtures") or MIXTURES)
-    unknown = [m for m in mixtures if m not in MIXTURES]
-    if unknown:
-        raise ValueError(f"study_options.mixtures: unknown mixture(s) {unknown}; choose from {list(MIXTURES)}")
-    kwargs = {"pressures": to_plain(opts.get("pressures")), "duration": float(opts.get("duration_s", 20.0)),
-              "dt": float(opts.get("dt", 1e-3))}
-    out = {}
-    for mixture in tqdm(mixtures, desc="mixtures", disable=not cfg.progress, leave=False):
-        p, f = free_vibration_frequencies(mixture, **kwargs)
-        out[mixture] = {"pressure_mpa": np.asarray(p).tolist(), "frequency_hz": np.asarray(f).tolist()}
-    return {"mixtures": out, "published_hz": {m: list(TABLE2_HZ[m]) for m in mixtures}}
-
-
-STUDIES = {"seed001_free_vibration": _seed001_free_vibration}
-
-
 def run(cfg: DictConfig) -> dict:
-    """Simulate (or run ``cfg.study``) and write ``summary.json`` (+ ``predictions.csv``) in the run dir."""
+    """Simulate and write ``summary.json`` and ``predictions.csv`` in the run dir."""
     check_app(cfg, "simulate")
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
-    study = cfg.get("study")
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
-        if study:
-            if study not in STUDIES:
-                raise ValueError(f"unknown study {study!r}; choose one of {sorted(STUDIES)}")
-            summary = {"study": study, **STUDIES[study](cfg)}
-        else:
-            kinds = {"sine": _signal_run, "free_vibration": _signal_run, "data": _data_run}
-            if cfg.input.kind not in kinds:
-                raise ValueError(f"unknown input.kind {cfg.input.kind!r}; choose one of {sorted(kinds)}")
-            model = instantiate(cfg.model, _convert_="all")
-            frames, records = kinds[cfg.input.kind](model, cfg)
-            table = pd.concat(frames, ignore_index=True)
-            atomic_write(run_dir / "predictions.csv", table.to_csv(index=False))
-            summary = {"model": cfg.model.get("name") or model.name, "input": cfg.input.kind,
-                       "outputs": _output_names(model), "records": records}
+        kinds = {"sine": _signal_run, "free_vibration": _signal_run, "data": _data_run}
+        if cfg.input.kind not in kinds:
+            raise ValueError(f"unknown input.kind {cfg.input.kind!r}; choose one of {sorted(kinds)}")
+        model = instantiate(cfg.model, _convert_="all")
+        frames, records = kinds[cfg.input.kind](model, cfg)
+        table = pd.concat(frames, ignore_index=True)
+        atomic_write(run_dir / "predictions.csv", table.to_csv(index=False))
+        summary = {"model": cfg.model.get("name") or model.name, "input": cfg.input.kind,
+                   "outputs": _output_names(model), "records": records}
     summary["wall_s"] = time.perf_counter() - start
     write_json(run_dir / "summary.json", summary)
     return summary

@@ -8,6 +8,11 @@ Model (eqs. 1–2, with eq. 2's misplaced |z| corrected)::
 Literal-degree convention (DESIGN.md "Units"): φ in deg, φ̇ in deg/s, M in Nm, and the rig's inertia
 I = 0.51 used directly in those units. With it, free vibration reproduces Table 2. Eq. (5) of the
 paper prints displacement (φ₂ − φ₁) where velocity belongs in the rate equation; we use velocity.
+
+Every builder takes ``coefficients``: parameter functions in Table 1's layout (``{"D": [c0, c1], ...}``,
+increasing powers of p [MPa]) that replace the mixture's, e.g. identified ones (``parameter_functions``
+reads them back from a fitted model). ``identifiable_combinations`` gives the response-determining
+combinations of the raw parameters; ``forced_response`` runs the rig under an underpressure schedule.
 """
 
 from __future__ import annotations
@@ -48,14 +53,29 @@ FREE_VIBRATION_IC = {"ABS": (10.0, 55.0), "3:1": (10.0, 160.0), "1:1": (10.0, 10
                      "NBR": (10.0, 5.0)}
 
 
+# Where each Table 1 parameter lives in the composition: (effect key, parameter name).
+PARAMETER_PATHS = {"c": ("viscous", "c"), **{n: ("hysteresis", n) for n in ("alpha", "k", "k1", "D", "A", "beta",
+                                                                             "gamma", "n")},
+                   "Ms": ("friction", "Fc")}
+
+
 def _check_mixture(mixture: str) -> dict[str, list[float]]:
     if mixture not in TABLE1:
         raise ValueError(f"unknown seed 001 mixture {mixture!r}; choose one of {list(MIXTURES)}")
     return TABLE1[mixture]
 
 
-def _effects(mixture: str) -> dict:
-    table = _check_mixture(mixture)
+def _table(mixture: str, coefficients) -> dict[str, list[float]]:
+    if coefficients is None:
+        return _check_mixture(mixture)
+    if set(coefficients) != set(PARAMETER_PATHS) or any(len(v) == 0 for v in coefficients.values()):
+        raise ValueError(f"coefficients must give a non-empty coefficient list for each of {list(PARAMETER_PATHS)}; "
+                         f"got {sorted(coefficients)}")
+    return {k: [float(c) for c in v] for k, v in coefficients.items()}
+
+
+def _effects(mixture: str, coefficients=None) -> dict:
+    table = _table(mixture, coefficients)
     poly = lambda name: {"kind": "polynomial", "coeffs": table[name], "condition": CONDITION}  # noqa: E731
     return {
         "viscous": Viscous(c=poly("c")),
@@ -64,37 +84,86 @@ def _effects(mixture: str) -> dict:
     }
 
 
-def modified_bouc_wen(mixture: str = "1:3") -> Constitutive:
-    """The damper law of one mixture (torque [Nm] from the angle history [deg]); condition ``pressure_mpa``."""
-    return Constitutive(_effects(mixture), units={"x": "deg", "F": "Nm", "t": "s"},
-                        name=f"modified_bouc_wen[{mixture}]")
+def modified_bouc_wen(mixture: str = "1:3", coefficients=None) -> Constitutive:
+    """The damper law of one mixture (torque [Nm] from the angle history [deg]); condition ``pressure_mpa``.
+
+    ``coefficients`` (Table 1's layout) replace the mixture's parameter functions.
+    """
+    label = mixture if coefficients is None else "custom"
+    return Constitutive(_effects(mixture, coefficients), units={"x": "deg", "F": "Nm", "t": "s"},
+                        name=f"modified_bouc_wen[{label}]")
 
 
-def vpptd_rig(mixture: str = "1:3", outputs=("x", "force")) -> DrivenOscillator:
+def vpptd_rig(mixture: str = "1:3", outputs=("x", "force"), coefficients=None) -> DrivenOscillator:
     """Seed 001 Fig. 4: inertia I on the damper, driven kinematically by φ₁(t) (eqs. 3–5).
 
     I φ̈₂ + M(φ₂ − φ₁, φ̇₂ − φ̇₁, z) = 0. Input: φ₁ [deg]; outputs φ₂ [deg] and the damper torque [Nm].
-    Free vibration: φ₁ ≡ 0 and an initial state [φ₂(0), φ̇₂(0)].
+    Free vibration: φ₁ ≡ 0 and an initial state [φ₂(0), φ̇₂(0)]. ``coefficients`` (Table 1's layout)
+    replace the mixture's parameter functions (e.g. a damper law identified from loops).
     """
-    return DrivenOscillator(_effects(mixture), units={"x": "deg", "F": "Nm", "u": "deg", "t": "s"},
-                            name=f"vpptd_rig[{mixture}]", excitation="base", outputs=outputs,
+    label = mixture if coefficients is None else "custom"
+    return DrivenOscillator(_effects(mixture, coefficients), units={"x": "deg", "F": "Nm", "u": "deg", "t": "s"},
+                            name=f"vpptd_rig[{label}]", excitation="base", outputs=outputs,
                             mass=INERTIA, fixed=("mass",))
 
 
+def parameter_functions(model) -> dict[str, list[float]]:
+    """The parameter functions of a seed 001 composition in Table 1's layout (increasing powers of p).
+
+    Works on ``modified_bouc_wen`` / ``vpptd_rig`` models, fitted or not; a constant parameter gives a
+    one-element list. The result can be passed back as ``coefficients=``.
+    """
+    out = {}
+    for name, (effect, param) in PARAMETER_PATHS.items():
+        fn = model.effects[effect].params[param]
+        values = fn.coeffs if hasattr(fn, "coeffs") else fn.value
+        out[name] = [float(v) for v in values.detach().reshape(-1)]
+    return out
+
+
+def identifiable_combinations(model, pressures) -> dict[str, np.ndarray]:
+    """Response-determining combinations of the modified Bouc–Wen parameters at each pressure.
+
+    z → s z (A → s A; β, γ → s^(1−n) β, s^(1−n) γ; (1 − α) k → (1 − α) k / s) and D → λ D (A, β, γ → λ A,
+    λ β, λ γ; (1 − α) k → (1 − α) k / λ), each with α k and α k1 held, leave the torque unchanged
+    (DESIGN.md "Units"); these combinations are invariant under both:
+
+    ``elastic_k = α k`` [Nm/deg], ``cubic_k1 = α k1`` [Nm/deg³], ``hysteretic_k0 = (1 − α) k A`` [Nm/deg]
+    (initial slope of the hysteretic torque), ``hysteretic_torque = (1 − α) D k (A / (β + γ))^(1/n)`` [Nm]
+    (its saturation level under loading; NaN where β + γ ≤ 0), ``shape = β / (β + γ)`` [-], ``n`` [-],
+    ``c`` [Nm·s/deg] and ``Ms`` [Nm]. Returns arrays of shape ``(len(pressures),)``.
+    """
+    p = np.asarray(pressures, dtype=np.float64).reshape(-1)
+    with torch.no_grad():
+        values = model.evaluate({CONDITION: torch.as_tensor(p, dtype=torch.float64)}, len(p))
+    h = {k: v.detach().double().numpy() for k, v in values["hysteresis"].items()}
+    alpha, k, A, D, n = h["alpha"], h["k"], h["A"], h["D"], h["n"]
+    s = h["beta"] + h["gamma"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        saturation = np.where(s > 0, (1 - alpha) * D * k * np.abs(A / s) ** (1.0 / n), np.nan)
+        shape = h["beta"] / s
+    return {"elastic_k": alpha * k, "cubic_k1": alpha * h["k1"], "hysteretic_k0": (1 - alpha) * k * A,
+            "hysteretic_torque": saturation, "shape": shape, "n": n,
+            "c": values["viscous"]["c"].detach().double().numpy(),
+            "Ms": values["friction"]["Fc"].detach().double().numpy()}
+
+
 def free_vibration_frequencies(mixture: str, pressures=None, duration: float = 10.0, dt: float = 2e-3,
-                               initial=None, method: str = "fft", backend: str = "fast"):
+                               initial=None, method: str = "fft", backend: str = "fast", coefficients=None):
     """Free-vibration frequency [Hz] of the rig at each underpressure (seed 001 Table 2).
 
     Simulates φ₁ ≡ 0 from the figure caption's initial conditions and estimates the frequency of
-    φ₂ about its rest position (``hybridhyst.analysis.free_vibration_frequency``). Returns
-    ``(pressures, frequencies)`` as numpy arrays.
+    φ₂ about its rest position (``hybridhyst.analysis.free_vibration_frequency``; ``method`` "fft" or
+    "turning_points"). ``coefficients`` (Table 1's layout) replace the mixture's damper law (the initial
+    conditions stay the mixture's). Returns ``(pressures, frequencies)`` as numpy arrays.
     """
     from ...analysis import free_vibration_frequency
     from ...simulate import simulate
 
     pressures = np.arange(1, 10) * 0.01 if pressures is None else np.asarray(pressures, dtype=float)
+    _check_mixture(mixture)
     x0, v0 = FREE_VIBRATION_IC[mixture] if initial is None else initial
-    model = vpptd_rig(mixture, outputs=("x",)).double()
+    model = vpptd_rig(mixture, outputs=("x",), coefficients=coefficients).double()
     n = int(round(duration / dt)) + 1
     with torch.no_grad():
         y = simulate(model, torch.zeros(len(pressures), n), dt=dt, conditions={CONDITION: pressures},
@@ -102,3 +171,62 @@ def free_vibration_frequencies(mixture: str, pressures=None, duration: float = 1
     x = y[..., 0].double().numpy()
     freqs = np.array([free_vibration_frequency(xi, dt, method=method) for xi in x])
     return pressures, freqs
+
+
+def pressure_segments(pressure_mpa, tolerance_mpa: float = 1e-3) -> np.ndarray:
+    """Start samples of the piecewise-constant segments of an underpressure schedule ``(B, T)`` [MPa].
+
+    A segment starts at sample 0 and wherever some row's pressure first differs by more than
+    ``tolerance_mpa`` from that row's value at the segment's start.
+    """
+    P = np.atleast_2d(np.asarray(pressure_mpa, dtype=np.float64))
+    if tolerance_mpa < 0 or not np.isfinite(P).all():
+        raise ValueError("the pressure schedule must be finite and tolerance_mpa >= 0")
+    starts, ref = [0], P[:, 0]
+    for i in range(1, P.shape[1]):
+        if np.abs(P[:, i] - ref).max() > tolerance_mpa:
+            starts.append(i)
+            ref = P[:, i]
+    return np.asarray(starts)
+
+
+def forced_response(mixture: str, t, pressure_mpa, amplitude_deg: float = 10.0, frequency_hz: float = 0.3,
+                    coefficients=None, outputs=("x",), tolerance_mpa: float = 1e-3,
+                    backend: str = "fast") -> np.ndarray:
+    """The rig driven by φ₁ = φ₀ sin(2π f t) under an underpressure schedule (seed 001 §5.2, Figs. 10–14).
+
+    Parameters
+    ----------
+    t : sample times ``(T,)`` [s], from rest (φ₂ = φ̇₂ = z = 0 at t[0]).
+    pressure_mpa : underpressure at each sample, ``(T,)`` or ``(B, T)`` [MPa] (B schedules in one batch).
+    amplitude_deg, frequency_hz : φ₀ [deg] and f [Hz] of the kinematic excitation (its rates are exact).
+    coefficients : Table 1's layout, replacing the mixture's damper law; outputs : rig outputs.
+    tolerance_mpa : the schedule is held piecewise constant (``pressure_segments``); each segment is
+        one ``simulate`` call started from the previous one's full final state (φ₂, φ̇₂, z), so a
+        constant schedule gives exactly one uninterrupted simulation.
+
+    Returns
+    -------
+    ``(B, T, len(outputs))`` numpy array (φ₂ [deg] for "x").
+    """
+    from ...simulate import simulate
+
+    t = np.asarray(t, dtype=np.float64)
+    P = np.atleast_2d(np.asarray(pressure_mpa, dtype=np.float64))
+    if t.ndim != 1 or P.shape[1] != len(t):
+        raise ValueError(f"pressure_mpa has {P.shape[1]} samples per row but t has shape {t.shape}")
+    w = 2 * np.pi * float(frequency_hz)
+    phi1 = float(amplitude_deg) * np.stack([np.sin(w * t), w * np.cos(w * t), -w * w * np.sin(w * t)], axis=-1)
+    U = torch.as_tensor(np.broadcast_to(phi1, (len(P), len(t), 3)).copy())
+    model = vpptd_rig(mixture, outputs=outputs, coefficients=coefficients).double()
+    starts = pressure_segments(P, tolerance_mpa)
+    bounds = [*starts[starts < len(t) - 1], len(t) - 1]  # a segment needs two samples
+    pieces, state = [], None
+    with torch.no_grad():
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            y, states = simulate(model, U[:, a:b + 1], t=t[a:b + 1], conditions={CONDITION: P[:, a]},
+                                 initial_state=state, return_states=True, backend=backend)
+            pieces.append(y[:, :-1])
+            state = states[:, -1]
+        pieces.append(y[:, -1:])
+    return torch.cat(pieces, dim=1).double().numpy()
