@@ -24,7 +24,7 @@ from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .gradient import _decimate_all
 from .refine import levenberg_marquardt
 from .refine import refine as refine_rows
-from .search import cma_es, differential_evolution, safe_costs
+from .search import cma_es, differential_evolution, grid_search, monte_carlo, safe_costs
 from .space import SearchSpace
 
 __all__ = ["IdentificationResult", "RecordsProblem", "identify"]
@@ -172,7 +172,15 @@ def _global(problem, method, pop, generations, seed, target, progress, init=None
         init = None if init is None else init[:1]
         return cma_es(problem.cost, problem.space, pop=pop, generations=generations, seed=seed, target=target,
                       init=init, progress=progress)
-    raise ValueError(f"unknown search method {method!r}; choose 'de' or 'cma'")
+    budget = int(pop or 32)
+    if method == "mc":  # the same budget as pop × generations, one batch per "generation"
+        return monte_carlo(problem.cost, problem.space, samples=budget * generations, batch=budget, seed=seed,
+                           target=target, init=init, progress=progress)
+    if method == "grid":  # the finest even grid within pop × generations points (the same in every round)
+        points = max(2, int((budget * generations) ** (1.0 / problem.space.dim) + 1e-9))
+        return grid_search(problem.cost, problem.space, points=points, batch=budget, target=target,
+                           progress=progress)
+    raise ValueError(f"unknown search method {method!r}; choose 'de', 'cma', 'mc' or 'grid'")
 
 
 def _local(problem, mode, found, opts, target, progress):
@@ -241,8 +249,10 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
     ----------
     model : nominal model; its current values centre the default search box and it is fitted in place.
     records : a ``Record``, ``RecordSet`` or list of records (different conditions are fitted jointly).
-    method : ``"cma"`` (CMA-ES, default: the more reliable on Bouc–Wen fits) or ``"de"`` (differential
-        evolution); pop, generations : population size and generations per round.
+    method : ``"cma"`` (CMA-ES, default: the more reliable on Bouc–Wen fits), ``"de"`` (differential
+        evolution), ``"mc"`` (Monte Carlo: uniform samples of the box, seed 002) or ``"grid"`` (systematic
+        search on an even grid, seed 004), the last two with a budget of pop × generations points;
+        pop, generations : population size and generations per round.
     rounds : search + refinement rounds at most; a round after the first resumes the search from the
         refined points and the last population (new seed), and runs only while ``target`` is not met.
     refine : local refinement of the best ``restarts`` members, all in one batch: ``"lm"`` (default, also

@@ -2,16 +2,17 @@
 
 ``objective(X) -> costs`` takes a population ``X (N, D)`` of coordinates (float64) and returns ``(N,)``
 costs; in ``identify`` it is one ``simulate(..., values=..., backend="fast")`` over population × records.
-Both searches work in the unit cube of the search box (log scale for wide positive coordinates, see
-``space.Box``), are reproducible with ``seed`` (a NumPy ``Generator`` drives every random choice), stop
-early at ``target`` and treat members whose cost is NaN/inf, or whose evaluation raises, as infinitely
-bad: they never crash the search.
+The searches — differential evolution, CMA-ES, Monte Carlo (uniform random sampling, seed 002) and a
+systematic grid (seed 004) — work in the unit cube of the search box (log scale for wide positive
+coordinates, see ``space.Box``), are reproducible with ``seed`` (a NumPy ``Generator`` drives every random
+choice), stop early at ``target`` and treat members whose cost is NaN/inf, or whose evaluation raises, as
+infinitely bad: they never crash the search.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,7 +20,7 @@ import torch
 
 from .space import Box
 
-__all__ = ["SearchResult", "cma_es", "differential_evolution", "safe_costs"]
+__all__ = ["SearchResult", "cma_es", "differential_evolution", "grid_search", "monte_carlo", "safe_costs"]
 
 Objective = Callable[[torch.Tensor], torch.Tensor]
 
@@ -239,3 +240,114 @@ def cma_es(objective: Objective, space, *, pop: int | None = None, generations: 
     U_all = np.vstack([best_u[None], last_U])
     c_all = np.concatenate([[best_c], last_c])
     return _finish(box, U_all, c_all, history, lam * gen, gen, bad)
+
+
+class _Best:
+    """The ``keep`` lowest-cost members seen so far (coordinates), for batch-wise searches."""
+
+    def __init__(self, keep: int, dim: int):
+        self.keep = int(keep)
+        self.X, self.c = torch.empty(0, dim, dtype=torch.float64), torch.empty(0, dtype=torch.float64)
+
+    def add(self, X: torch.Tensor, c: torch.Tensor) -> None:
+        X, c = torch.cat([self.X, X.to(torch.float64)]), torch.cat([self.c, c])
+        order = torch.as_tensor(np.argsort(c.numpy(), kind="stable")[: self.keep])
+        self.X, self.c = X[order], c[order]
+
+    def result(self, history, evals, batches, bad) -> SearchResult:
+        return SearchResult(x=self.X[0], cost=float(self.c[0]), population=self.X, costs=self.c, history=history,
+                            evaluations=evals, generations=batches, non_finite=bad)
+
+
+def _batched(objective, box: Box, batches, total: int, desc: str, keep: int, target, progress) -> SearchResult:
+    """Score coordinate batches in turn, keeping the best ``keep``; stop at ``target``."""
+    best, history, evals, bad, n = _Best(keep, box.dim), [], 0, 0, 0
+    with _progress(total, desc, progress) as bar:
+        for X in batches:
+            c = safe_costs(objective, X)
+            best.add(X, c)
+            evals, bad, n = evals + X.shape[0], bad + int(torch.isinf(c).sum()), n + 1
+            history.append(float(best.c[0]))
+            bar.update(X.shape[0])
+            bar.set_postfix(cost=f"{history[-1]:.4g}")
+            if target is not None and history[-1] <= target:
+                break
+    return best.result(history, evals, n, bad)
+
+
+def monte_carlo(objective: Objective, space, *, samples: int = 1024, batch: int = 256, seed: int = 0,
+                target: float | None = None, init: torch.Tensor | None = None, keep: int = 64,
+                progress: bool = True) -> SearchResult:
+    """Monte Carlo search: ``samples`` points drawn uniformly in the box, scored ``batch`` at a time.
+
+    Seed 002's identification ("random inputs over the uniform domain ... selecting the best solution").
+    Uniform in the unit cube of the box, i.e. uniform in each coordinate, or in its logarithm where the
+    box searches a log scale (a ``Box`` built without ``log`` is uniform in every coordinate).
+
+    Parameters
+    ----------
+    objective : ``X (N, D) -> (N,)`` costs, one call per batch.
+    space : a ``SearchSpace``/``Box`` or ``(lower, upper)``.
+    samples : points drawn (the budget); batch : points per objective call.
+    seed : random seed (same seed, same points); target : stop when the best cost ≤ target.
+    init : optional members ``(M, D)`` (coordinates) scored first, in addition to the samples.
+    keep : the best members returned as ``population`` (best first); ``history`` is the best cost after
+        each batch, ``generations`` the number of batches.
+    """
+    box = _as_box(space)
+    if int(samples) < 1 or int(batch) < 1 or int(keep) < 1:
+        raise ValueError(f"monte_carlo needs samples, batch and keep >= 1, got {samples}, {batch}, {keep}")
+    rng = np.random.default_rng(seed)
+
+    def batches():
+        if init is not None:
+            yield torch.as_tensor(init, dtype=torch.float64).reshape(-1, box.dim)
+        for start in range(0, int(samples), int(batch)):
+            n = min(int(batch), int(samples) - start)
+            yield box.from_unit(torch.as_tensor(rng.random((n, box.dim))))
+
+    extra = 0 if init is None else torch.as_tensor(init).reshape(-1, box.dim).shape[0]
+    return _batched(objective, box, batches(), int(samples) + extra, "Monte Carlo", keep, target, progress)
+
+
+def grid_search(objective: Objective, space, *, points: int | Sequence[int] = 5,
+                levels: Sequence[Sequence[float]] | None = None, batch: int = 1024, target: float | None = None,
+                keep: int = 64, progress: bool = True) -> SearchResult:
+    """Systematic search: every point of a grid over the box, scored ``batch`` at a time (seed 004).
+
+    Parameters
+    ----------
+    objective : ``X (N, D) -> (N,)`` costs, one call per batch.
+    space : a ``SearchSpace``/``Box`` or ``(lower, upper)``.
+    points : points per coordinate (one int for all, or one per coordinate, each >= 2), evenly spaced in
+        the unit cube of the box from bound to bound (so geometrically spaced on log-scale coordinates).
+    levels : explicit grid values per coordinate (``D`` sequences, in coordinates); replaces ``points``
+        (e.g. a paper's step sizes: ``a`` in steps of 0.01, ``n`` integer).
+    batch : grid points per objective call; target : stop when the best cost ≤ target.
+    keep : the best members returned as ``population`` (best first); the grid is enumerated lazily (the
+        last coordinate varies fastest), so its size is limited by time, not memory.
+    """
+    box = _as_box(space)
+    if levels is not None:
+        axes = [np.asarray(v, dtype=np.float64).reshape(-1) for v in levels]
+        if len(axes) != box.dim or any(len(a) < 1 for a in axes):
+            raise ValueError(f"levels must give at least one value for each of the {box.dim} coordinates, "
+                             f"got {[len(a) for a in axes]}")
+        to_coords = lambda G: torch.as_tensor(G)  # noqa: E731
+    else:
+        counts = [int(points)] * box.dim if np.isscalar(points) else [int(p) for p in points]
+        if len(counts) != box.dim or min(counts) < 2:
+            raise ValueError(f"points must be >= 2 for each of the {box.dim} coordinates, got {points}")
+        axes = [np.linspace(0.0, 1.0, k) for k in counts]
+        to_coords = lambda G: box.from_unit(torch.as_tensor(G))  # noqa: E731
+    if int(batch) < 1 or int(keep) < 1:
+        raise ValueError(f"grid_search needs batch and keep >= 1, got {batch}, {keep}")
+    shape = tuple(len(a) for a in axes)
+    total = math.prod(shape)
+
+    def batches():
+        for start in range(0, total, int(batch)):
+            idx = np.unravel_index(np.arange(start, min(start + int(batch), total)), shape)
+            yield to_coords(np.stack([a[i] for a, i in zip(axes, idx)], axis=1))
+
+    return _batched(objective, box, batches(), total, "grid search", keep, target, progress)
