@@ -36,12 +36,12 @@ def run_case(effect: str | None, backend: str) -> dict:
     import torch
 
     from hybridhyst.discover import discover
-    from hybridhyst.discover.synthetic import CASES, SPLIT, base_model, make_records
+    from hybridhyst.discover.synthetic import CASES, base_model, make_records, split_of
 
     torch.set_default_dtype(torch.float64)
     t0 = time.perf_counter()
     records = make_records(effect, noise_sd=NOISE)
-    res = discover(records, base_model(effect), split=SPLIT, noise_sd=NOISE, backend=backend, progress=False,
+    res = discover(records, base_model(effect), split=split_of(effect), noise_sd=NOISE, backend=backend, progress=False,
                    max_steps=3, identify_options={"seed": 0}, substeps=CASE_SUBSTEPS.get(effect, SUBSTEPS))
     rep = res.report
     named = [s["effect"] for s in rep["steps"]]

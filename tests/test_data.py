@@ -271,13 +271,15 @@ def test_brfd_and_boucwen_equal_the_shared_files():
     bw = load_builtin("boucwen")
     with np.load(SHARED / "data" / "boucwen" / "boucwen_benchmark.npz") as src:
         for name, key in (("train", "train"), ("multisine", "test_multisine"), ("sinesweep", "test_sinesweep")):
-            np.testing.assert_array_equal(bw[name].x, src[f"{key}_u"])
-            np.testing.assert_array_equal(bw[name].y, src[f"{key}_y"])
+            np.testing.assert_array_equal(bw[name].x[bw[name].warmup:], src[f"{key}_u"])
+            np.testing.assert_array_equal(bw[name].y[bw[name].warmup:], src[f"{key}_y"])
 
 
 def test_boucwen_shapes_and_split():
     bw = load_builtin("boucwen")
-    assert {r.name: len(r) for r in bw} == {"train": 40960, "multisine": 8192, "sinesweep": 153000}
+    assert {r.name: len(r) - r.warmup for r in bw} == {"train": 40960, "multisine": 8192, "sinesweep": 153000}
+    ms = bw["multisine"]  # periodic steady state: extended by its own last quarter period, not scored
+    assert ms.warmup == 2048 and np.array_equal(ms.y[:2048], ms.y[-2048:])
     assert bw["multisine"].dt == pytest.approx(1 / 750) and bw["train"].units == {"t": "s", "x": "N", "y": "m"}
     train, _, test = bw.split(held_out={"split": ["test"]})
     assert train.names == ["train"] and test.names == ["multisine", "sinesweep"]
@@ -328,3 +330,11 @@ def test_data_configs_instantiate(config, tmp_path):
         cfg = OmegaConf.merge(cfg, {"mixtures": ["ABS"], "pressures": [0.05], "cycles": 1, "samples_per_cycle": 40})
     records = instantiate(cfg)
     assert isinstance(records, RecordSet) and len(records) >= 1
+
+
+def test_warmup_is_validated_and_follows_slices():
+    t = np.arange(100) * 0.01
+    rec = Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=10)
+    assert rec.slice(step=2).warmup == 5 and rec.slice(4).warmup == 6 and rec.slice(20).warmup == 0
+    with pytest.raises(ValueError, match="warmup must be in"):
+        Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=100)

@@ -95,7 +95,9 @@ class Record:
 
     Arrays are float64 numpy of shape ``(time,)``. ``units`` maps channel names ("t", "x", "y" and the
     extra channels) to unit strings. ``conditions`` maps condition names (e.g. ``pressure_mpa``,
-    ``frequency_hz``) to numbers or strings. Validated on construction: a ``ValueError`` names the
+    ``frequency_hz``) to numbers or strings. ``warmup``: leading samples that are simulated but not
+    scored (a periodic steady-state record extended by its own last samples, so that a model started
+    from rest has settled when scoring begins). Validated on construction: a ``ValueError`` names the
     record, the channel and the offending rows, and says how to fix it.
     """
 
@@ -107,6 +109,7 @@ class Record:
     units: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     source: str = ""
+    warmup: int = 0
 
     def __post_init__(self):
         where = f"record {self.name!r}" + (f" ({self.source})" if self.source else "")
@@ -115,6 +118,9 @@ class Record:
         self.extra = {k: arrays[k] for k in self.extra}
         self.conditions = {k: _plain(v) for k, v in dict(self.conditions).items()}
         self.units = {"t": "s", **dict(self.units)}
+        self.warmup = int(self.warmup)
+        if not 0 <= self.warmup < len(self.t):
+            raise ValueError(f"{where}: warmup must be in [0, {len(self.t)}) samples, got {self.warmup}")
 
     def __len__(self) -> int:
         return len(self.t)
@@ -133,9 +139,13 @@ class Record:
               step: int | None = None) -> Record:
         """Samples ``start:stop:step`` as a new record (same conditions and units)."""
         sl = slice(start, stop, step)
+        first, _, stride = sl.indices(len(self))
+        warmup = max(0, -(-(self.warmup - first) // stride))  # warm-up samples kept in the slice
+        t = self.t[sl]
         return Record(
-            name=name or self.name, t=self.t[sl], x=self.x[sl], y=self.y[sl], conditions=self.conditions,
+            name=name or self.name, t=t, x=self.x[sl], y=self.y[sl], conditions=self.conditions,
             units=self.units, extra={k: v[sl] for k, v in self.extra.items()}, source=self.source,
+            warmup=min(warmup, max(len(t) - 1, 0)),
         )
 
     def require_samples(self, n: int, what: str = "this model") -> None:

@@ -68,7 +68,7 @@ def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
     """Pooled RMSE and RMSE per condition label (``training.evaluate.split_metrics``); {} without records."""
     from ..training.evaluate import split_metrics
 
-    out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p}
+    out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p, "warmup": r.warmup}
                          for r, p in zip(records, preds)])
     if out:
         out["per_condition"] = {k: v["rmse"] for k, v in out["per_condition"].items()}
@@ -96,6 +96,24 @@ def _sse(problem: RecordsProblem, x: torch.Tensor) -> float:
     return c * problem.n_samples if math.isfinite(c) else math.inf
 
 
+def _converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tensor, lm_steps: int,
+                  rounds: int = 4, rtol: float = 1e-3):
+    """Batched LM in rounds of ``lm_steps`` iterations, continued while the best cost still falls by more
+    than ``rtol`` (relative) per round, at most ``rounds`` rounds. A fixed budget can stop a fit halfway
+    down a long valley (a new hysteretic state pulling the damping and stiffness with it); the next
+    candidate would then get the credit for finishing it."""
+    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, progress=False)
+    for _ in range(rounds - 1):
+        if not math.isfinite(lm.cost):
+            break
+        more = levenberg_marquardt(problem.residuals, space, lm.X, iters=lm_steps, progress=False)
+        done = more.cost > (1 - rtol) * lm.cost
+        lm = more  # each row continues from its own end, so no row gets worse
+        if done:
+            break
+    return lm
+
+
 def _fit_new(candidate: Candidate, model, train, sim, lm_steps, box_factor) -> tuple[float, object, dict]:
     """Fit the model augmented by ``candidate``: every coordinate free (the new ones within the candidate's
     bounds, the others in a box around their fitted values), one batched Levenberg–Marquardt whose rows
@@ -118,7 +136,7 @@ def _fit_new(candidate: Candidate, model, train, sim, lm_steps, box_factor) -> t
     if bool(old.any()):  # re-balance the fitted coordinates against each start of the new effect
         starts = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
                                      progress=False).X
-    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, progress=False)
+    lm = _converged_lm(problem, space, starts, lm_steps)
     if not math.isfinite(lm.cost):
         return math.inf, None, {}
     space.to_model(lm.x)
@@ -132,7 +150,7 @@ def _polish(model, train, sim, lm_steps, box_factor) -> tuple[float, int]:
     space = SearchSpace(model, factor=box_factor)
     problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
     x0 = space.initial().clamp(space.lower, space.upper)
-    lm = levenberg_marquardt(problem.residuals, space, x0[None], iters=lm_steps, progress=False)
+    lm = _converged_lm(problem, space, x0[None], lm_steps)
     x = lm.x if math.isfinite(lm.cost) and lm.cost <= _sse(problem, x0) / problem.n_samples else x0
     space.to_model(x)
     return _sse(problem, x), space.dim
@@ -169,7 +187,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     label_conditions : conditions shown in per-condition labels (default: all).
     margin : relative fall of the validation RMSE (training RMSE without validation records) required.
     criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
-    top : best-ranked candidates compared on validation error; lm_steps : LM iterations per fit.
+    top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
+        a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
     noise_sd : known noise level (reported beside the residual RMSE; not used by the rule).
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
         ``identify_options``); else start from its current values.

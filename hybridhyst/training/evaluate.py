@@ -31,7 +31,8 @@ def predict_split(module, dm, split: str) -> list[dict]:
                 out.append({"record": rec.name, "condition": label, "split": split,
                             "t": batch["t"][0].cpu().numpy(), "x": batch["u"][0].cpu().numpy(),
                             "y": batch["y"][0].cpu().numpy(), "y_pred": res["y"][0].cpu().numpy(),
-                            "y_nominal": None if nominal is None else nominal[0].cpu().numpy()})
+                            "y_nominal": None if nominal is None else nominal[0].cpu().numpy(),
+                            "warmup": rec.warmup})
     finally:
         module.train(was_training)
     return out
@@ -45,14 +46,19 @@ def _metrics(pred: np.ndarray, y: np.ndarray) -> dict:
 
 
 def split_metrics(preds: list[dict]) -> dict:
-    """Pooled metrics over every sample of the split, and per condition label (records pooled)."""
+    """Pooled metrics over every scored sample of the split (after each record's ``warmup``), and per
+    condition label (records pooled)."""
     if not preds:
         return {}
-    out = _metrics(np.concatenate([p["y_pred"] for p in preds]), np.concatenate([p["y"] for p in preds]))
+
+    def pooled(sel, key):
+        return np.concatenate([np.asarray(p[key])[int(p.get("warmup") or 0):] for p in sel])
+
+    out = _metrics(pooled(preds, "y_pred"), pooled(preds, "y"))
     per: dict[str, dict] = {}
     for label in dict.fromkeys(p["condition"] for p in preds):
         sel = [p for p in preds if p["condition"] == label]
-        per[label] = _metrics(np.concatenate([p["y_pred"] for p in sel]), np.concatenate([p["y"] for p in sel]))
+        per[label] = _metrics(pooled(sel, "y_pred"), pooled(sel, "y"))
     out["per_condition"] = per
     return out
 
