@@ -6,10 +6,8 @@ import json
 
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
 
 from hybridhyst.cli import study as study_cli
-from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.studies.seed000 import pinn_identification, softplus_model
 
 
@@ -31,9 +29,7 @@ def test_bad_options_are_clear_errors(tmp_path):
 @pytest.fixture(scope="module")
 def reduced(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("seed000")
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("study", overrides=[f"run_dir={run_dir}", "experiment=seed000_pinn_identification",
-                                          "reduced=true", "progress=false"])
+    cfg = study_cli.compose_study("seed000_pinn_identification", f"run_dir={run_dir}", "reduced=true", "progress=false")
     summary = study_cli.run(cfg)
     return run_dir, summary
 

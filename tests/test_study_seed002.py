@@ -5,19 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
 
 from hybridhyst.cli import study as study_cli
-from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.studies.seed002 import TABLE1
 
 
 @pytest.fixture(scope="module")
 def reduced(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("seed002")
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("study", overrides=[f"run_dir={run_dir}", "experiment=seed002_loop_metrics", "reduced=true",
-                                          "progress=false"])
+    cfg = study_cli.compose_study("seed002_loop_metrics", f"run_dir={run_dir}", "reduced=true", "progress=false")
     return study_cli.run(cfg), run_dir
 
 

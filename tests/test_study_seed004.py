@@ -4,18 +4,14 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
 
 from hybridhyst.cli import study as study_cli
-from hybridhyst.cli.common import CONF_DIR
 
 
 @pytest.fixture(scope="module")
 def reduced(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("seed004")
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("study", overrides=[f"run_dir={run_dir}", "experiment=seed004_symmetric_damper",
-                                          "reduced=true", "progress=false"])
+    cfg = study_cli.compose_study("seed004_symmetric_damper", f"run_dir={run_dir}", "reduced=true", "progress=false")
     return study_cli.run(cfg), run_dir
 
 

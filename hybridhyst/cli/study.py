@@ -16,7 +16,16 @@ from omegaconf import DictConfig
 from ..studies import StudyOutput, get_study
 from .common import CONF_DIR, check_app, guarded, prepare_run_dir, to_plain, torch_settings
 
-__all__ = ["main", "run"]
+__all__ = ["compose_study", "main", "run"]
+
+
+def compose_study(experiment: str, *overrides: str) -> DictConfig:
+    """The composed ``study`` config of ``experiment=<name>`` plus Hydra ``overrides`` (for ``run`` from
+    Python or a test: e.g. ``run(compose_study("seed004_symmetric_damper", "run_dir=/tmp/s4", "reduced=true"))``)."""
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("study", overrides=[f"experiment={experiment}", *overrides])
 
 
 def run(cfg: DictConfig) -> dict:
