@@ -134,7 +134,6 @@ def test_discover_app_on_the_measured_brfd_data(tmp_path):
 
 
 KNOWN_UNIDENTIFIABLE = {
-    "lugre": "Fc trades off against Fs and vs on two-cycle sine tests (response fits to the noise)",
     "linear_stiffness": "a stiff, strong Dahl element acts as the spring over the whole stroke",
 }
 
