@@ -9,3 +9,15 @@ def float64():
     torch.set_default_dtype(torch.float64)
     yield
     torch.set_default_dtype(old)
+
+
+@pytest.fixture(scope="module")
+def reduced_study(request, tmp_path_factory):
+    """The reduced run (``reduced=true``) of the study named by the test module's ``STUDY``, once per
+    module: ``(summary, run_dir)``."""
+    from hybridhyst.cli import study as study_cli
+
+    name = request.module.STUDY
+    run_dir = tmp_path_factory.mktemp(name)
+    cfg = study_cli.compose_study(name, f"run_dir={run_dir}", "reduced=true", "progress=false")
+    return study_cli.run(cfg), run_dir

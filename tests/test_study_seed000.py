@@ -1,4 +1,4 @@
-"""Seed 000 study (reduced): the 4-parameter VPPTD model by seed 000's PINN recipe and by identify."""
+"""Seed 000 study (reduced_study): the 4-parameter VPPTD model by seed 000's PINN recipe and by identify."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import json
 import pandas as pd
 import pytest
 
-from hybridhyst.cli import study as study_cli
 from hybridhyst.studies.seed000 import pinn_identification, softplus_model
+
+STUDY = "seed000_pinn_identification"
 
 
 def test_softplus_model_makes_all_four_parameters_positive():
@@ -26,18 +27,10 @@ def test_bad_options_are_clear_errors(tmp_path):
         pinn_identification({"reduced": False}, None)
 
 
-@pytest.fixture(scope="module")
-def reduced(tmp_path_factory):
-    run_dir = tmp_path_factory.mktemp("seed000")
-    cfg = study_cli.compose_study("seed000_pinn_identification", f"run_dir={run_dir}", "reduced=true", "progress=false")
-    summary = study_cli.run(cfg)
-    return run_dir, summary
-
-
-def test_reduced_study_fits_both_pressures(reduced):
+def test_reduced_study_fits_both_pressures(reduced_study):
     """0.01 and 0.09 MPa, 1000 epochs: both methods reach the data's peak torque (about 18.6 and 38.3 Nm,
     seed 001's 1:3 loops) and the 4-parameter model's least-squares floor of about 1 Nm RMSE."""
-    run_dir, summary = reduced
+    summary, run_dir = reduced_study
     fits = pd.read_csv(run_dir / "fits.csv")
     assert list(fits["p [MPa]"]) == [0.01, 0.01, 0.09, 0.09]
     for _, row in fits.iterrows():
@@ -54,8 +47,8 @@ def test_reduced_study_fits_both_pressures(reduced):
     assert summary["model_error_floor_rmse_nm"][1] < 1.2
 
 
-def test_reduced_study_records_the_training_history(reduced):
-    run_dir, summary = reduced
+def test_reduced_study_records_the_training_history(reduced_study):
+    summary, run_dir = reduced_study
     steps = pd.read_csv(run_dir / "milestones.csv")
     start = steps[steps["epoch"] == 0]
     assert (start[["c", "k", "k2", "Ms"]].to_numpy() < 0.5).all()  # max(N(0, 0.1), 1e-6): near zero

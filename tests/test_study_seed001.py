@@ -8,11 +8,9 @@ import math
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
 from hybridhyst.analysis import free_vibration_frequency
 from hybridhyst.cli import study as study_cli
-from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.physics.compositions.seed001 import (
     TABLE1,
     TABLE2_HZ,
@@ -28,9 +26,7 @@ from hybridhyst.studies import STUDIES, get_study
 
 
 def _compose(tmp_path, *overrides):
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        return compose("study", overrides=[f"run_dir={tmp_path}", "experiment=seed001_vpptd_dynamics",
-                                           "progress=false", *overrides])
+    return study_cli.compose_study("seed001_vpptd_dynamics", f"run_dir={tmp_path}", "progress=false", *overrides)
 
 
 def test_experiment_selects_the_study(tmp_path):

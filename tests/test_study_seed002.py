@@ -6,30 +6,24 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hybridhyst.cli import study as study_cli
 from hybridhyst.studies.seed002 import TABLE1
 
-
-@pytest.fixture(scope="module")
-def reduced(tmp_path_factory):
-    run_dir = tmp_path_factory.mktemp("seed002")
-    cfg = study_cli.compose_study("seed002_loop_metrics", f"run_dir={run_dir}", "reduced=true", "progress=false")
-    return study_cli.run(cfg), run_dir
+STUDY = "seed002_loop_metrics"
 
 
-def test_table1_is_self_consistent_and_rises_to_a_maximum(reduced):
+def test_table1_is_self_consistent_and_rises_to_a_maximum(reduced_study):
     """k_eq_a is the mean of k_eq_l and k_eq_u to Table 1's rounding; each metric fits y0 + a(1 − e^(−bp))."""
-    summary, _ = reduced
+    summary, _ = reduced_study
     k_mean = 0.5 * (np.array(TABLE1["loading_stiffness"]) + np.array(TABLE1["unloading_stiffness"]))
     assert np.abs(k_mean - TABLE1["average_stiffness"]).max() <= 0.0051
     r2 = {k.split(" | ")[1]: v for k, v in summary["trend_r2"].items() if k.startswith("seed 002 Table 1")}
     assert len(r2) == 5 and min(r2.values()) > 0.98, r2
 
 
-def test_metrics_of_the_seed001_abs_loops(reduced):
+def test_metrics_of_the_seed001_abs_loops(reduced_study):
     """Seed 002's windows on the ABS law at ±5°, p = 0 and 0.05 MPa (regression values of the definitions:
     a wrong branch, window or loop orientation changes them by far more than the tolerance)."""
-    summary, _ = reduced
+    summary, _ = reduced_study
     m = {k: np.array(v) for k, v in summary["metrics"]["seed 001 ABS model"].items()}
     assert m["average_stiffness"] == pytest.approx(0.5 * (m["loading_stiffness"] + m["unloading_stiffness"]))
     assert (m["loading_stiffness"][[0, -1]], m["unloading_stiffness"][[0, -1]]) == (
@@ -39,8 +33,8 @@ def test_metrics_of_the_seed001_abs_loops(reduced):
     assert all(np.all(np.diff(v) > 0) for v in m.values())  # every metric rises with underpressure
 
 
-def test_table2_diverges_and_the_fits_beat_monte_carlo(reduced):
-    summary, run_dir = reduced
+def test_table2_diverges_and_the_fits_beat_monte_carlo(reduced_study):
+    summary, run_dir = reduced_study
     assert summary["table2_all_diverge"]
     per = pd.read_csv(run_dir / "per_pressure.csv")
     err = per.pivot(index="p [MPa]", columns="method", values="error [%]")

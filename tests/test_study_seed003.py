@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
 
 from hybridhyst.cli import study as study_cli
-from hybridhyst.cli.common import CONF_DIR
+from hybridhyst.cli.common import to_plain
 from hybridhyst.physics.compositions.seed003 import TABLE1
 from hybridhyst.studies.seed003 import _settings, sample_times
 
@@ -18,10 +17,7 @@ NAME = "seed003_hybrid_pinn_piezo"
 
 
 def _options(**overrides) -> dict:
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("study", overrides=[f"experiment={NAME}"])
-    from hybridhyst.cli.common import to_plain
-
+    cfg = study_cli.compose_study(NAME)
     return {**to_plain(cfg.study_options), "reduced": False, **overrides}
 
 
@@ -44,10 +40,7 @@ def test_bad_options_are_clear_errors(change, message):
 
 
 def test_reduced_study_recovers_the_nominal_and_ranks_the_models(tmp_path):
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("study", overrides=[f"run_dir={tmp_path}", f"experiment={NAME}", "reduced=true",
-                                          "progress=false"])
-    summary = study_cli.run(cfg)
+    summary = study_cli.run(study_cli.compose_study(NAME, f"run_dir={tmp_path}", "reduced=true", "progress=false"))
 
     # DE + LM on sweeps of the nominal itself recovers the identifiable Table 1 values
     rec = summary["identification"]["check"]["paper_parameters"]

@@ -5,27 +5,20 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from hybridhyst.cli import study as study_cli
+STUDY = "seed004_symmetric_damper"
 
 
-@pytest.fixture(scope="module")
-def reduced(tmp_path_factory):
-    run_dir = tmp_path_factory.mktemp("seed004")
-    cfg = study_cli.compose_study("seed004_symmetric_damper", f"run_dir={run_dir}", "reduced=true", "progress=false")
-    return study_cli.run(cfg), run_dir
-
-
-def test_grid_search_recovers_the_figure9_parameters(reduced):
-    summary, _ = reduced
+def test_grid_search_recovers_the_figure9_parameters(reduced_study):
+    summary, _ = reduced_study
     grid = summary["methods"]["grid search (k, c, m assumed)"]
     assert grid["parameters"] == [{"a": 0.36, "A": 9.0, "beta": 4.0, "gamma": -3.0, "n": 5.0}]
     assert grid["evaluations"] == 3 * 3 * 2 * 2 * 3
 
 
-def test_identify_reaches_the_noise_floor_below_the_papers_rms(reduced):
+def test_identify_reaches_the_noise_floor_below_the_papers_rms(reduced_study):
     """Nothing assumed: the relative error to the noise-free loop is below seed 004's 0.01 (p = 0.02 MPa), the
     error to the data equals the noise's own, and the identifiable combinations are within 2 %."""
-    summary, run_dir = reduced
+    summary, run_dir = reduced_study
     ident = summary["methods"]["identify (all free)"]
     assert ident["rel_error_vs_truth"][0] < 0.01
     assert ident["rel_error_vs_data"][0] == pytest.approx(summary["noise_floor"][0], rel=0.02)
@@ -34,8 +27,8 @@ def test_identify_reaches_the_noise_floor_below_the_papers_rms(reduced):
     assert ((found.drop("p [MPa]") / truth.drop("p [MPa]") - 1).abs() < 0.02).all(), (truth, found)
 
 
-def test_formula5_as_printed_is_blind_to_a_sign_flip(reduced):
-    _, run_dir = reduced
+def test_formula5_as_printed_is_blind_to_a_sign_flip(reduced_study):
+    _, run_dir = reduced_study
     f5 = pd.read_csv(run_dir / "formula5.csv").set_index("model force")
     flipped = f5.loc["measured, sign flipped (−F)"]
     assert flipped["formula (5) as printed"] == pytest.approx(0.0, abs=1e-12)

@@ -1,13 +1,14 @@
 """The closed loop: fit the nominal, diagnose the residual, rank candidate effects, add the best, refit,
 accept on validation error and an information criterion, repeat; then say what is left.
 
-Ranking: the model augmented by each candidate is refitted with every coordinate free (the candidate's
-few starting values as restarts of one batched Levenberg–Marquardt, the other coordinates from their
-fitted values, first re-balanced against each start; LM continued until converged), and the share of
-the training residual's sum of squares that disappears is the candidate's evidence. Of the best ``top`` candidates the one with the lowest validation RMSE is chosen
-(among those within ``margin`` of it, the one with the lowest information criterion: validation cannot
-tell them apart, so the more parsimonious wins) and accepted if its validation RMSE falls by more than
-``margin`` (relative) and the information criterion (BIC by default) improves.
+Ranking: the model augmented by each candidate is refitted with every coordinate free (the candidate's few
+starting values as restarts of one batched Levenberg–Marquardt, the other coordinates from their fitted
+values, first re-balanced against each start; LM continued until converged), and the share of the training
+residual's sum of squares that disappears is the candidate's evidence. Of the best ``top`` candidates the one
+with the lowest validation RMSE is chosen (among those within ``margin`` of it, the one with the lowest
+information criterion: validation cannot tell them apart, so the more parsimonious wins) and accepted if its
+validation RMSE falls by more than ``margin`` (relative) and the information criterion (BIC by default)
+improves.
 """
 
 from __future__ import annotations
