@@ -31,9 +31,12 @@ def test_output_writes_tables_figures_and_publishes_between_markers(tmp_path):
     fig, ax = plt.subplots()
     ax.plot([0, 1])
     out.figure("loops", fig, caption="Loops")
+    out.csv("long", pd.DataFrame({"t": [0.0, 0.5]}), "every sample")
     out.finish({"a": 1})
     text = (tmp_path / "run" / "results.md").read_text()
     assert "| 0.01 | 1.235 |" in text and "| 0.02 | — |" in text and "![Loops](loops.png)" in text
+    assert "[long.csv](long.csv): every sample" in text and "| 0.5 |" not in text
+    assert pd.read_csv(tmp_path / "run" / "long.csv")["t"].tolist() == [0.0, 0.5]
     assert json.loads((tmp_path / "run" / "summary.json").read_text()) == {"a": 1}
 
     dest = tmp_path / "experiments" / "demo"
@@ -64,3 +67,15 @@ def test_app_refuses_missing_study_and_runs_a_registered_one(tmp_path, monkeypat
     summary = study_cli.run(cfg)
     assert summary["answer"] == 42 and summary["reduced"] is True
     assert "reduced=true" in (tmp_path / "pub" / "README.md").read_text()
+
+
+def test_resolve_options_merges_the_reduced_options_one_level_deep():
+    from hybridhyst.studies import resolve_options
+
+    options = {"epochs": 100, "identify": {"pop": 32, "rounds": 3}, "reduced": True,
+               "reduced_options": {"epochs": 2, "identify": {"pop": 8}}}
+    assert resolve_options(options, ["epochs"], "demo") == {"epochs": 2, "identify": {"pop": 8, "rounds": 3},
+                                                             "reduced": True}
+    assert resolve_options({**options, "reduced": False}, ["epochs"], "demo")["identify"] == {"pop": 32, "rounds": 3}
+    with pytest.raises(ValueError, match=r"demo study: missing option\(s\) \['lr'\]"):
+        resolve_options(options, ["epochs", "lr"], "demo")

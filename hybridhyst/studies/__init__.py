@@ -9,6 +9,7 @@ version that CI runs (same code path, fewer conditions/epochs). Studies are regi
 
 from __future__ import annotations
 
+import copy
 import importlib
 from collections.abc import Callable
 
@@ -23,6 +24,19 @@ STUDIES: dict[str, str] = {
 }
 
 
+def resolve_options(options: dict, required, study: str) -> dict:
+    """A study's options: ``reduced_options`` merged over them when ``options["reduced"]`` (a dict value is
+    merged one level deep), after checking that every ``required`` key is given."""
+    missing = [k for k in required if k not in options]
+    if missing:
+        raise ValueError(f"{study} study: missing option(s) {missing}; see conf/experiment/{study}.yaml")
+    opts = {k: copy.deepcopy(v) for k, v in options.items() if k != "reduced_options"}
+    if options.get("reduced"):
+        for key, value in (options.get("reduced_options") or {}).items():
+            opts[key] = {**opts[key], **value} if isinstance(value, dict) and isinstance(opts.get(key), dict) else value
+    return opts
+
+
 def get_study(name: str) -> Callable[[dict, StudyOutput], dict]:
     """The study function registered as ``name`` (a clear error naming the known studies otherwise)."""
     if name not in STUDIES:
@@ -31,4 +45,4 @@ def get_study(name: str) -> Callable[[dict, StudyOutput], dict]:
     return getattr(importlib.import_module(f"{__name__}.{module}"), func)
 
 
-__all__ = ["STUDIES", "StudyOutput", "get_study"]
+__all__ = ["STUDIES", "StudyOutput", "get_study", "resolve_options"]

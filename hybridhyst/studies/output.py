@@ -52,6 +52,12 @@ class StudyOutput:
         self.sections.append(head + markdown_table(frame, floatfmt) + "\n")
         return path
 
+    def csv(self, name: str, frame: pd.DataFrame, caption: str) -> Path:
+        """Write ``<name>.csv`` only (a table too long to show) and link it from ``results.md``."""
+        path = atomic_write(self.dir / f"{name}.csv", frame.to_csv(index=False))
+        self.sections.append(f"[{name}.csv]({name}.csv): {caption}\n")
+        return path
+
     def figure(self, name: str, fig, caption: str = "") -> Path:
         """Save a matplotlib figure as ``<name>.png`` (closed afterwards) and show it in ``results.md``."""
         import matplotlib.pyplot as plt

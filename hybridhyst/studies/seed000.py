@@ -33,6 +33,7 @@ from ..physics.compositions.seed000 import SEED000_QUOTED, vpptd_algebraic
 from ..physics.parameters import Constant
 from ..simulate import simulate
 from ..training.modules import PhysicsModule
+from . import resolve_options
 from .output import StudyOutput
 
 __all__ = ["PARAMS", "pinn_identification", "softplus_model"]
@@ -67,11 +68,7 @@ def softplus_model() -> torch.nn.Module:
 
 
 def _options(options: dict) -> dict:
-    missing = [k for k in REQUIRED if k not in options]
-    if missing:
-        raise ValueError(f"seed000 study: missing option(s) {missing}; see conf/experiment/"
-                         "seed000_pinn_identification.yaml")
-    opts = {**options, **(options.get("reduced_options") or {})} if options.get("reduced") else dict(options)
+    opts = resolve_options(options, REQUIRED, "seed000_pinn_identification")
     if int(opts["epochs"]) < 1 or float(opts["lr"]) <= 0:
         raise ValueError(f"seed000 study: need epochs >= 1 and lr > 0, got {opts['epochs']} and {opts['lr']}")
     bad = [e for e in opts["snapshot_epochs"] if not 1 <= int(e) <= int(opts["epochs"])]

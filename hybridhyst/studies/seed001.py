@@ -21,7 +21,6 @@ import torch
 from tqdm.auto import tqdm
 
 from ..analysis import rmse
-from ..cli.common import atomic_write
 from ..data.builtin import load_vpptd
 from ..identify import identify
 from ..physics.compositions.seed001 import (
@@ -36,6 +35,7 @@ from ..physics.compositions.seed001 import (
     parameter_functions,
 )
 from ..simulate import simulate
+from . import resolve_options
 from .output import StudyOutput
 
 __all__ = ["vpptd_dynamics"]
@@ -51,10 +51,7 @@ SAMPLES_PER_CYCLE = 570  # load_vpptd's default resolution of the evaluation loo
 
 
 def _options(options: dict) -> dict:
-    missing = [k for k in REQUIRED if k not in options]
-    if missing:
-        raise ValueError(f"seed001 study: missing option(s) {missing}; see conf/experiment/seed001_vpptd_dynamics.yaml")
-    opts = {**options, **(options.get("reduced_options") or {})} if options.get("reduced") else dict(options)
+    opts = resolve_options(options, REQUIRED, "seed001_vpptd_dynamics")
     unknown = [m for m in opts["mixtures"] if m not in MIXTURES]
     if unknown or not opts["mixtures"]:
         raise ValueError(f"seed001 study: mixtures {unknown or '[]'} invalid; choose from {list(MIXTURES)}")
@@ -205,12 +202,6 @@ def vpptd_dynamics(options: dict, out: StudyOutput) -> dict:
     return _report(out, opts, results)
 
 
-def _csv(out: StudyOutput, name: str, frame: pd.DataFrame, caption: str) -> None:
-    """A long table as CSV only, linked from ``results.md``."""
-    atomic_write(out.dir / f"{name}.csv", frame.to_csv(index=False))
-    out.text(f"[{name}.csv]({name}.csv): {caption}")
-
-
 def _identification_table(results: dict) -> pd.DataFrame:
     rows = []
     for mixture, r in results.items():
@@ -266,22 +257,22 @@ def _report(out: StudyOutput, opts: dict, results: dict) -> dict:
     out.table("identification", _identification_table(results), "Identification per mixture (RMSE over all "
               "samples; the noise floor is the noise sd)")
     loops = pd.DataFrame([row for r in results.values() for row in r["loop_rows"]])
-    _csv(out, "loops", loops, "RMSE and steady-loop peak torque per mixture and pressure.")
+    out.csv("loops", loops, "RMSE and steady-loop peak torque per mixture and pressure.")
     combos = pd.DataFrame([row for r in results.values() for row in r["combinations"]])
     shown = combos[combos["p [MPa]"].isin([min(opts["eval_pressures"]), max(opts["eval_pressures"])])]
     out.table("combinations", shown, "Identifiable combinations (invariant under the Bouc–Wen rescalings) at the "
               "lowest and highest pressure, Table 1 (T1) and identified (id): elastic stiffness αk and initial "
               "hysteretic stiffness (1−α)kA [Nm/deg], hysteretic torque F_h = (1−α)Dk(A/(β+γ))^(1/n) [Nm], dry "
               "friction M_s [Nm], viscous c [Nm·s/deg]")
-    _csv(out, "combinations_all", combos, "identifiable combinations at every evaluation pressure.")
+    out.csv("combinations_all", combos, "identifiable combinations at every evaluation pressure.")
     functions = pd.DataFrame([{"mixture": m, "parameter": k, "Table 1 (c0, c1, …)": str(TABLE1[m][k]),
                                "identified (c0, c1, …)": str([float(f"{c:.4g}") for c in fit])}
                               for m, r in results.items() for k, fit in r["ident"]["coefficients"].items()])
-    _csv(out, "functions", functions, "raw parameter functions, Table 1 and identified (not identifiable one by one).")
+    out.csv("functions", functions, "raw parameter functions, Table 1 and identified (not identifiable one by one).")
     fv = pd.concat([r["free_vibration"] for r in results.values()], ignore_index=True)
     out.table("table2", _table2(fv), "Seed 001 Table 2: free-vibration frequency range over the evaluation "
               "pressures [Hz], Table 1's and the identified damper on the rig (I = 0.51), FFT and turning points")
-    _csv(out, "free_vibration", fv, "free-vibration frequency per mixture and pressure.")
+    out.csv("free_vibration", fv, "free-vibration frequency per mixture and pressure.")
     step = pd.DataFrame([row for r in results.values() for row in r["forced"]["rows"]])
     levels = " → ".join(f"{float(v):g}" for v in opts["forced"]["step_mpa"])
     out.table("forced_step", step, f"Forced rig, φ₁ = {opts['forced']['amplitude_deg']}° sin(2π·"
@@ -292,7 +283,7 @@ def _report(out: StudyOutput, opts: dict, results: dict) -> dict:
     out.table("forced_sweep", _sweep_table(cycles[cycles["schedule"] == "sweep"]), f"Forced rig, half-sine sweep "
               f"p = {opts['forced']['sweep_peak_mpa']}·sin(πt/T): twist amplitude in the first cycle after the "
               "start-up, at peak pressure and in the last cycle")
-    _csv(out, "forced_cycles", cycles, "amplitudes of φ₂ and of the twist per excitation cycle, both schedules.")
+    out.csv("forced_cycles", cycles, "amplitudes of φ₂ and of the twist per excitation cycle, both schedules.")
     _figures(out, results, fv, cycles)
     return _summary(opts, results, loops, fv, step)
 
@@ -331,15 +322,6 @@ def _summary(opts: dict, results: dict, loops: pd.DataFrame, fv: pd.DataFrame, s
     return summary
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _pressure_axis(ax, t: np.ndarray, pressure: np.ndarray) -> None:
     """The underpressure schedule [MPa] on a right-hand axis (green)."""
     twin = ax.twinx()
@@ -349,7 +331,8 @@ def _pressure_axis(ax, t: np.ndarray, pressure: np.ndarray) -> None:
 
 
 def _fig_loops(results: dict):
-    plt = _pyplot()
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(1, len(results), figsize=(2.7 * len(results) + 0.5, 2.8), squeeze=False)
     for ax, (mixture, r) in zip(axes[0], results.items()):
         loops = r["loops"]
@@ -370,7 +353,8 @@ def _fig_loops(results: dict):
 
 
 def _fig_free_vibration(fv: pd.DataFrame):
-    plt = _pyplot()
+    import matplotlib.pyplot as plt
+
     mixtures = list(dict.fromkeys(fv["mixture"]))
     fig, axes = plt.subplots(1, len(mixtures), figsize=(2.5 * len(mixtures) + 0.5, 2.6), squeeze=False, sharey=True)
     for ax, mixture in zip(axes[0], mixtures):
@@ -392,7 +376,8 @@ def _fig_free_vibration(fv: pd.DataFrame):
 
 
 def _fig_forced(cycles: pd.DataFrame, results: dict):
-    plt = _pyplot()
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(len(results), 2, figsize=(8, 1.2 * len(results) + 0.4), squeeze=False, sharex=True)
     for row, (mixture, r) in zip(axes, results.items()):
         f = r["forced"]
@@ -414,7 +399,8 @@ def _fig_forced(cycles: pd.DataFrame, results: dict):
 
 
 def _fig_trace(mixture: str, f: dict):
-    plt = _pyplot()
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(1, 2, figsize=(9, 2.4), squeeze=False)
     s = slice(None, None, 20)  # 25 points per second: enough for 0.3 Hz, keeps the PNG small
     for ax, (j, schedule) in zip(axes[0], enumerate(SCHEDULES)):

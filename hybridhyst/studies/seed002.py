@@ -24,7 +24,7 @@ import pandas as pd
 import torch
 from tqdm.auto import tqdm
 
-from ..analysis import fit_trend, r2, relative_error
+from ..analysis import fit_trend, r2, relative_error, rmse
 from ..analysis import loop_metrics as measure_loop
 from ..data.builtin import load_vpptd
 from ..identify import Box, RecordsProblem, SearchSpace, identify, monte_carlo
@@ -34,6 +34,7 @@ from ..physics.effects import EFFECTS
 from ..physics.effects.bouc_wen_p import BoucWenNormalised
 from ..physics.models import Constitutive
 from ..simulate import simulate
+from . import resolve_options
 from .output import StudyOutput
 
 __all__ = ["loop_metrics"]
@@ -62,10 +63,7 @@ TABLE2 = {"gamma": (24.01, 12.88, 11.00, 10.98, 9.00, 9.05, 9.04, 10.43, 10.82, 
 
 
 def _options(options: dict) -> dict:
-    missing = [k for k in REQUIRED if k not in options]
-    if missing:
-        raise ValueError(f"seed002 study: missing option(s) {missing}; see conf/experiment/seed002_loop_metrics.yaml")
-    opts = {**options, **(options.get("reduced_options") or {})} if options.get("reduced") else dict(options)
+    opts = resolve_options(options, REQUIRED, "seed002_loop_metrics")
     p = [float(v) for v in opts["pressures"]]
     if len(p) < 4 or len(set(p)) != len(p) or any(not 0.0 <= v <= 0.1 for v in p):
         raise ValueError(f"seed002 study: pressures {p} must be at least 4 distinct underpressures in [0, 0.1] MPa "
@@ -116,8 +114,8 @@ def _quality(model, records) -> list[dict]:
     """R², relative error [%] and RMSE [Nm] of ``model``'s response on each record."""
     with torch.no_grad():
         ys = [y[:, 0].numpy() for y in simulate(model, records, backend="fast")]
-    return [{"R2": r2(y, r.y), "error [%]": 100 * relative_error(y, r.y), "RMSE [Nm]": float(np.sqrt(np.mean(
-        (y - r.y) ** 2)))} for y, r in zip(ys, records)]
+    return [{"R2": r2(y, r.y), "error [%]": 100 * relative_error(y, r.y), "RMSE [Nm]": rmse(y, r.y)}
+            for y, r in zip(ys, records)]
 
 
 def _per_pressure(opts: dict, records, progress: bool):
@@ -142,7 +140,7 @@ def _per_pressure(opts: dict, records, progress: bool):
             values = {k.split(".")[1]: v for k, v in x.items()}
             rows.append({"p [MPa]": rec.conditions["pressure_mpa"], "method": name,
                          **_quality(_bouc_wen(values), [rec])[0], "evaluations": evals, "wall [s]": wall, **values})
-        fits.append(values)
+        fits.append({k.split(".")[1]: v for k, v in fit.x.items()})
     return pd.DataFrame(rows), fits
 
 

@@ -18,7 +18,6 @@ data-efficiency curve.
 from __future__ import annotations
 
 import contextlib
-import copy
 import math
 import time
 import warnings
@@ -35,6 +34,7 @@ from ..physics.compositions import piezo_attenuation
 from ..physics.compositions.seed003 import TABLE1, UM
 from ..physics.parameters import Fixed
 from ..simulate import simulate
+from . import resolve_options
 
 __all__ = ["hybrid_pinn_piezo", "paper_parameters", "sweep_records", "true_actuator"]
 
@@ -243,15 +243,8 @@ _REQUIRED = ("amplitudes_v", "frequencies_hz", "val_cases", "test_cases", "cycle
 
 
 def _settings(options: dict) -> dict:
-    """The experiment's options, with ``reduced_overrides`` applied when ``reduced``; checked."""
-    o = {k: copy.deepcopy(v) for k, v in options.items() if k != "reduced_overrides"}
-    if options.get("reduced"):
-        for key, value in (options.get("reduced_overrides") or {}).items():
-            o[key] = {**o[key], **value} if isinstance(value, dict) and isinstance(o.get(key), dict) else value
-    missing = [k for k in _REQUIRED if k not in o]
-    if missing:
-        raise ValueError(f"seed003_hybrid_pinn_piezo: study_options miss {missing} "
-                         "(see conf/experiment/seed003_hybrid_pinn_piezo.yaml)")
+    """The experiment's options, with ``reduced_options`` applied when ``reduced``; checked."""
+    o = resolve_options(options, _REQUIRED, "seed003_hybrid_pinn_piezo")
     cases = [(float(a), float(f)) for a in o["amplitudes_v"] for f in o["frequencies_hz"]]
     bad = [c for c in cases + _pairs(o["val_cases"]) + _pairs(o["test_cases"])
            if not (0 < c[0] <= 100 and 0.1 <= c[1] <= 50)]

@@ -26,6 +26,7 @@ from ..data import Record
 from ..identify import RecordsProblem, SearchSpace, grid_search, identify
 from ..physics.compositions.seed004 import CAPTION_PARAMETERS, bouc_wen_classic
 from ..simulate import simulate
+from . import resolve_options
 from .output import StudyOutput
 
 __all__ = ["symmetric_damper"]
@@ -40,11 +41,7 @@ PAPER_RMS = {0.02: 0.01, 0.04: 0.006, 0.06: 0.0085, 0.08: 0.01}
 
 
 def _options(options: dict) -> dict:
-    missing = [k for k in REQUIRED if k not in options]
-    if missing:
-        raise ValueError(f"seed004 study: missing option(s) {missing}; see "
-                         "conf/experiment/seed004_symmetric_damper.yaml")
-    opts = {**options, **(options.get("reduced_options") or {})} if options.get("reduced") else dict(options)
+    opts = resolve_options(options, REQUIRED, "seed004_symmetric_damper")
     if set(opts["grid"]) != set(SHAPE) or any(len(v) < 2 for v in opts["grid"].values()):
         raise ValueError(f"seed004 study: grid must list at least two levels for each of {list(SHAPE)}")
     for case in opts["cases"]:
