@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
@@ -63,11 +64,6 @@ def test_every_effect_is_registered_with_documented_specs():
 def test_unknown_parameter_raises_with_its_name(cls):
     with pytest.raises(ValueError, match="not_a_parameter"):
         cls(not_a_parameter=1.0)
-
-
-def test_backlash_rejects_nonpositive_eps():
-    with pytest.raises(ValueError, match="eps"):
-        Backlash(eps=0.0)
 
 
 # -- memoryless forces ------------------------------------------------------------------------------------
@@ -143,10 +139,10 @@ def test_lugre_without_stribeck_and_damping_is_dahl():
 
 
 # -- input operators and structure modifiers ----------------------------------------------------------------
-def backlash_loop(r: float, downstream, eps: float = 0.01):
-    """One period of x = sin(2 pi t) through a play of half-width r; |v| h <= 1.6 eps resolves eps."""
-    t, x = sine(1.0, 1.0, 1.0, 2.5e-3)
-    model = Constitutive([Backlash(r=r, eps=eps), *downstream])
+def backlash_loop(r: float, downstream, dt: float = 2.5e-3):
+    """One period of x = sin(2 pi t) through a play of half-width r."""
+    t, x = sine(1.0, 1.0, 1.0, dt)
+    model = Constitutive([Backlash(r=r), *downstream])
     return t, x, respond(model, x[None], t=t)[0]
 
 
@@ -157,7 +153,7 @@ def test_backlash_with_zero_width_is_transparent():
 
 
 def test_backlash_dead_band_width():
-    r, margin = 0.2, 0.05  # margin: 5 eps, where the smoothed play is within 1e-4 of the exact one
+    r, margin = 0.2, 0.05
     t, x, y = backlash_loop(r, [LinearStiffness(k=1.0)])
     assert float(y.max()) == pytest.approx(1.0 - r, abs=1e-3)  # output peak = input peak - r
     assert float(y.min()) == pytest.approx(-1.0 + r, abs=1e-3)
@@ -170,6 +166,26 @@ def test_backlash_dead_band_width():
     assert float((y[held] - (1.0 - r)).abs().max()) < 1e-3
     moving = after & (x < 1.0 - 2 * r - margin)
     assert torch.allclose(y[moving], x[moving] + r, atol=1e-3)
+
+
+def exact_play(x: np.ndarray, r: float) -> np.ndarray:
+    """The discrete play operator y_k = clamp(y_{k-1}, x_k - r, x_k + r), y_0 = x_0 (written independently)."""
+    y = np.empty_like(x)
+    y[0] = x[0]
+    for k in range(1, len(x)):
+        y[k] = min(max(y[k - 1], x[k] - r), x[k] + r)
+    return y
+
+
+def test_backlash_is_the_play_operator_at_any_sample_rate():
+    """No smoothing width to resolve: from 16 samples per cycle on, the output is the discrete play operator
+    up to the second-order error with which the gap integrates the input's velocity (it falls as h²)."""
+    r, errors = 0.15, []
+    for samples_per_cycle in (16, 40, 400):
+        t, x, y = backlash_loop(r, [LinearStiffness(k=1.0)], dt=1.0 / samples_per_cycle)
+        errors.append(float(np.abs(y.numpy() - exact_play(x.numpy(), r)).max()))
+    assert errors[0] < 0.02 and errors[1] < 3e-3  # of a unit amplitude, r = 0.15
+    assert errors[1] / errors[2] > 50  # ten times the rate: about a hundred times less error
 
 
 def test_backlash_coulomb_shows_dead_band_after_reversal():
@@ -224,7 +240,7 @@ ACTIVE = {
     "dahl": {"sigma0": 25.0, "Fc": 0.5},
     "lugre": {"sigma0": 25.0, "sigma1": 0.5, "sigma2": 0.2, "Fc": 0.5, "Fs": 0.8, "vs": 0.3},
     "stribeck": {"dFs": 0.5, "vs": 0.3, "v_s": 0.2},
-    "backlash": {"r": 0.1, "eps": 0.05},  # |v| h / eps <= 1.9: eps resolved (see Backlash)
+    "backlash": {"r": 0.02},
     "inertia": {"m": 0.5},
     "attenuation": {"xi": 0.7},
     "time_delay": {"tau": 0.013},
@@ -280,7 +296,7 @@ def test_neutral_effect_changes_nothing_and_still_learns(cls):
     """At its neutral values an added effect leaves the response unchanged, and its neutral parameters still
     get a gradient (so discovery can grow the effect from there)."""
     neutral = {n: s.neutral for n, s in cls.specs.items() if s.neutral is not None}
-    effect = cls(**neutral, **({"eps": 0.05} if cls is Backlash else {}))
+    effect = cls(**neutral)
     t, u = random_excitation()
     for name, model in structures(effect).items():
         reference = structures(Viscous(c=0.0))[name]  # the same structure without the effect

@@ -51,7 +51,7 @@ EFFECT_VALUES = {
     "viscous": {"c": 0.3}, "coulomb": {"Fc": 0.5, "v_s": 0.2}, "asymmetric_coulomb": {"Fc": 0.5, "dF": 0.2, "v_s": 0.2},
     "linear_stiffness": {"k": 2.0}, "cubic_stiffness": {"k3": 0.7}, "dahl": {"Fc": 1.0, "sigma0": 5.0},
     "lugre": {"Fc": 1.0, "Fs": 1.4, "vs": 0.5, "sigma0": 5.0, "sigma1": 0.1, "sigma2": 0.05},
-    "stribeck": {"dFs": 0.4, "vs": 0.5, "v_s": 0.2}, "backlash": {"r": 0.1, "eps": 0.05}, "inertia": {"m": 0.2},
+    "stribeck": {"dFs": 0.4, "vs": 0.5, "v_s": 0.2}, "backlash": {"r": 0.1}, "inertia": {"m": 0.2},
     "attenuation": {"xi": 0.3}, "time_delay": {"tau": 0.013}, "travel_drift": {"dF": 0.4, "v_s": 0.2},
     "bouc_wen": {"alpha": 0.3, "k": 2.0, "k1": 0.1, "D": 1.2, "A": 1.0, "beta": 0.5, "gamma": 0.3, "n": 1.7},
     "bouc_wen_normalised": {"omega": 1.5, "xi": 0.1, "alpha": 0.3, "A": 1.0, "beta": 0.3, "gamma": 0.5, "n": 1.48},

@@ -12,9 +12,10 @@ from .metrics import nrmse as nrmse
 from .metrics import r2 as r2
 from .metrics import relative_error as relative_error
 from .metrics import rmse as rmse
+from .metrics import split_metrics as split_metrics
 from .vibration import free_vibration_frequency as free_vibration_frequency
 from .vibration import turning_points as turning_points
 
 __all__ = ["LoopMetrics", "TrendFit", "dissipated_energy", "equivalent_stiffness", "fit_trend",
            "free_vibration_frequency", "loop_metrics", "mae", "nrmse", "peak_response", "r2",
-           "relative_error", "rmse", "turning_points"]
+           "relative_error", "rmse", "split_metrics", "turning_points"]

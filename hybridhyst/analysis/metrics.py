@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -51,3 +53,31 @@ def relative_error(pred, target) -> float:
     """
     p, t = _pair(pred, target)
     return float(np.sqrt(np.sum((t - p) ** 2) / np.sum(t**2)))
+
+
+def _all_metrics(pred: np.ndarray, y: np.ndarray) -> dict:
+    if not bool(np.isfinite(pred).all()):
+        return {"rmse": math.inf, "mae": math.inf, "nrmse": math.inf, "n": int(y.size)}
+    return {"rmse": rmse(pred, y), "mae": mae(pred, y), "nrmse": nrmse(pred, y), "n": int(y.size)}
+
+
+def split_metrics(preds: list[dict]) -> dict:
+    """Pooled metrics (rmse, mae, nrmse, n) over every scored sample of a split, and per condition label.
+
+    ``preds``: one dict per record with ``y`` (measured), ``y_pred``, ``condition`` (its label) and optional
+    ``warmup`` (leading samples simulated but not scored). Records are pooled; ``{}`` without records.
+    Returns ``{"rmse", "mae", "nrmse", "n", "per_condition": {label: {...}}}``.
+    """
+    if not preds:
+        return {}
+
+    def pooled(sel, key):
+        return np.concatenate([np.asarray(p[key])[int(p.get("warmup") or 0):] for p in sel])
+
+    out = _all_metrics(pooled(preds, "y_pred"), pooled(preds, "y"))
+    per: dict[str, dict] = {}
+    for label in dict.fromkeys(p["condition"] for p in preds):
+        sel = [p for p in preds if p["condition"] == label]
+        per[label] = _all_metrics(pooled(sel, "y_pred"), pooled(sel, "y"))
+    out["per_condition"] = per
+    return out

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
 from ..identify import identify
 from ..identify.identify import RecordsProblem
@@ -67,8 +68,6 @@ def _predict(model, records, sim) -> list[np.ndarray]:
 
 def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
     """Pooled RMSE and RMSE per condition label (``training.evaluate.split_metrics``); {} without records."""
-    from ..training.evaluate import split_metrics
-
     out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p, "warmup": r.warmup}
                          for r, p in zip(records, preds)])
     if out:
@@ -162,10 +161,8 @@ def _rmse_of(model, records, sim) -> float:
 
 
 def _parameters(model) -> dict:
-    from ..cli.common import parameter_table
-
     return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
-            for e, params in parameter_table(model).items() for p, info in params.items()}
+            for e, params in model.parameter_table().items() for p, info in params.items()}
 
 
 def discover(records, nominal, candidates: Sequence[str] | None = None, split: Mapping | None = None, *,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli.common import atomic_write, write_json
+from ..files import atomic_write, write_json
 from .diagnose import FEATURES, features
 from .loop import DiscoveryResult
 

@@ -33,7 +33,7 @@ CASES = {
     "lugre": ({"sigma0": 40.0, "sigma1": 0.0, "sigma2": 0.0, "Fc": 0.5, "Fs": 0.8, "vs": 0.5}, "Fc"),
     "bouc_wen": ({"alpha": 0.0, "k": 2.0, "k1": 0.0, "D": 1.0, "A": 1.0, "beta": 3.0, "gamma": 1.0, "n": 1.0},
                  "k"),
-    "backlash": ({"r": 0.08, "eps": 0.01}, "r"),  # eps: smoothing width (a constant, not identified)
+    "backlash": ({"r": 0.08}, "r"),
     "inertia": ({"m": 0.01}, "m"),
     "time_delay": ({"tau": 0.02}, "tau"),
     "travel_drift": ({"dF": 0.08, "v_s": 0.05}, "dF"),

@@ -9,15 +9,14 @@ record r's conditions. So a model whose parameters are functions of a condition 
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-import numpy as np
 import torch
 from torch import nn
 
+from ..data.batch import record_batches
 from ..data.records import Record, RecordSet
 from ..simulate import simulate
 from .fisher import FisherReport, fisher_analysis, output_jacobian
@@ -61,7 +60,8 @@ class IdentificationResult:
 
 
 class RecordsProblem:
-    """Records grouped by time grid, with batched predictions and costs for a ``SearchSpace``.
+    """Records grouped by length (``data.batch``: every record on its own time grid), with batched
+    predictions and costs for a ``SearchSpace``.
 
     Parameters
     ----------
@@ -74,16 +74,8 @@ class RecordsProblem:
         self.space, self.records = space, list(records)
         self.sim = {"method": method, "substeps": int(substeps), "backend": backend}
         dtype = next(iter(space.model.parameters()), torch.zeros((), dtype=torch.float64)).dtype
-        grids: dict[tuple, list[int]] = {}
-        for i, r in enumerate(self.records):
-            grids.setdefault((len(r), float(r.t[0]), float(r.t[-1])), []).append(i)
-        self.groups = []
-        for idx in grids.values():
-            group = [self.records[i] for i in idx]
-            U = torch.as_tensor(np.stack([np.stack([_channel(r, c) for c in input_channels], -1) for r in group]),
-                                dtype=dtype)
-            Y = torch.as_tensor(np.stack([r.y for r in group]), dtype=dtype)
-            self.groups.append((idx, torch.as_tensor(group[0].t, dtype=dtype), U, Y, _conditions(group, dtype)))
+        self.groups = [(b.index, b.t, b.inputs, b.y, b.conditions)
+                       for b in record_batches(self.records, input_channels, dtype)]
         self.n_samples = sum(len(r) for r in self.records)
         self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
 
@@ -93,7 +85,7 @@ class RecordsProblem:
         for _, t, U, _, cond in self.groups:
             N, R = X.shape[0], U.shape[0]
             values = self.space.values(X.to(U.dtype), cond, R)
-            y = simulate(self.space.model, U.repeat(N, 1, 1), t=t, values=values, **self.sim)
+            y = simulate(self.space.model, U.repeat(N, 1, 1), t=t.repeat(N, 1), values=values, **self.sim)
             out.append(y[..., 0].reshape(N, R, -1))
         return out
 
@@ -118,24 +110,6 @@ class RecordsProblem:
         for (_, _, _, Y, _), pred in zip(self.groups, self.predict_groups(X)):
             sse = sse + (pred - Y[None]).square().sum(dim=(1, 2))
         return sse / self.n_samples
-
-
-def _channel(r: Record, c: str) -> np.ndarray:
-    if c == "x":
-        return r.x
-    if c in r.extra:
-        return r.extra[c]
-    raise ValueError(f"record {r.name!r} has no channel {c!r}; it has x, y and {sorted(r.extra)}")
-
-
-def _conditions(group: Sequence[Record], dtype) -> dict[str, torch.Tensor]:
-    keys = sorted({k for r in group for k in r.conditions})
-    out = {}
-    for k in keys:
-        vals = [r.conditions.get(k) for r in group]
-        if all(isinstance(v, numbers.Number) for v in vals):
-            out[k] = torch.tensor([float(v) for v in vals], dtype=dtype)
-    return out
 
 
 def culprits(problem: RecordsProblem, x: torch.Tensor) -> list[str]:
@@ -316,15 +290,13 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
 
 
 def _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method, start) -> IdentificationResult:
-    from ..cli.common import parameter_table
-
     space = problem.space
     with torch.no_grad():
         mse = problem.record_mse(x[None])[0]
     per_record = {r.name: math.sqrt(float(m)) for r, m in zip(problem.records, mse)}
     report = _fisher(problem, x, cost, noise_sd, jacobian) if fisher else None
     return IdentificationResult(
-        model=space.model, x=dict(zip(space.names, x.tolist())), parameters=parameter_table(space.model),
+        model=space.model, x=dict(zip(space.names, x.tolist())), parameters=space.model.parameter_table(),
         rmse=math.sqrt(cost), per_record=per_record, cost=cost, fisher=report,
         identifiable=report.identifiable if report else [], uncertainty=report.sd if report else {},
         history=history, wall_s=time.perf_counter() - start, evaluations=evals, search=method)

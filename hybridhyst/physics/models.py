@@ -97,6 +97,21 @@ class NominalModel(nn.Module):
             }
         return out
 
+    def parameter_table(self) -> dict[str, dict[str, dict]]:
+        """{effect: {parameter: {"value": float or text, "unit": str, "fixed": bool}}} for reports: constant
+        parameters give a number, condition-dependent ones their description (e.g. a polynomial)."""
+        from .parameters import Constant, Fixed
+
+        out: dict[str, dict[str, dict]] = {}
+        for key, params in self.describe().items():
+            fns = dict(self.effects[key].params.items()) if key in self.effects else dict(self.structure_params.items())
+            out[key] = {}
+            for pname, info in params.items():
+                fn = fns.get(pname)
+                value = float(fn(None, 1)[0].detach()) if isinstance(fn, (Constant, Fixed)) else info["value"]
+                out[key][pname] = {"value": value, "unit": info["unit"], "fixed": isinstance(fn, Fixed)}
+        return out
+
     def with_effects(self, effects) -> NominalModel:
         """A copy of this model with another effect list (same structure, units, structure parameters).
 
@@ -135,6 +150,19 @@ class NominalModel(nn.Module):
         if not parts:
             return torch.zeros(batch, 0, dtype=ref.dtype, device=ref.device)
         return torch.cat(parts, dim=1)
+
+    def state_bounds(self, P: Params) -> list[tuple] | None:
+        """``[(lower, upper)]`` per state component (None where unbounded), or None when no effect bounds its
+        state; the simulator projects the state onto these bounds after every step (``Effect.state_bounds``)."""
+        out = [(None, None)] * self.state_dim
+        found = False
+        for key, effect in self.effects.items():
+            b = effect.state_bounds(P[key]) if effect.state_dim else None
+            if b is not None:
+                lo = self._offsets[key][0]
+                out[lo:lo + effect.state_dim] = list(b)
+                found = True
+        return out if found else None
 
     def _effects_pass(self, kin: Kinematics, state: torch.Tensor, P: Params, need_rates: bool):
         """Go through the effects in order: total force, added mass and (optionally) state rates."""

@@ -19,6 +19,13 @@ class Sign(sp.Function):
         return sp.S.Zero
 
 
+class Step(sp.Function):
+    """The unit step, 1 for x ≥ 0 and 0 for x < 0, with derivative 0 (as the torch reference)."""
+
+    def fdiff(self, argindex=1):
+        return sp.S.Zero
+
+
 class Absolute(sp.Function):
     """|x| with derivative sign(x) (as torch.abs)."""
 
@@ -61,6 +68,10 @@ def sigmoid(x):
 
 def absolute(x):
     return Absolute(x)
+
+
+def step(x):
+    return Step(x)
 
 
 def sign(x):

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 import torch
 
@@ -62,38 +60,18 @@ def _check_values(model, values, batch: int):
 
 
 def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Tensor]:
-    """Group records sharing a time grid into one batch each; return one ``(time, output_dim)`` per record."""
+    """Records of one length as one batch each (every row on its own time grid); one ``(time, output_dim)``
+    per record."""
+    from ..data.batch import record_batches
     from ..data.records import Record, RecordSet
 
     if isinstance(records, Record):
         records = [records]
     records = list(records.records if isinstance(records, RecordSet) else records)
-    groups: dict[tuple, list[int]] = {}
-    for i, r in enumerate(records):
-        key = (len(r), r.t.tobytes())  # identical grids only: a batch shares one time axis
-        groups.setdefault(key, []).append(i)
     out: list[torch.Tensor | None] = [None] * len(records)
-    for idx in groups.values():
-        group = [records[i] for i in idx]
-        cols = []
-        for r in group:
-            chans = []
-            for c in input_channels:
-                if c == "x":
-                    chans.append(r.x)
-                elif c in r.extra:
-                    chans.append(r.extra[c])
-                else:
-                    raise ValueError(f"record {r.name!r} has no channel {c!r}; it has x, y and {sorted(r.extra)}")
-            cols.append(np.stack(chans, axis=-1))
-        keys = sorted({k for r in group for k in r.conditions})
-        conditions = {}
-        for k in keys:
-            vals = [r.conditions.get(k) for r in group]
-            if all(isinstance(v, numbers.Number) for v in vals):
-                conditions[k] = np.asarray(vals, dtype=np.float64)
-        ys = simulate(model, np.stack(cols), t=group[0].t, conditions=conditions, **kwargs)
-        for j, i in enumerate(idx):
+    for batch in record_batches(records, input_channels, _model_dtype(model)):
+        ys = simulate(model, batch.inputs, t=batch.t, conditions=batch.conditions, **kwargs)
+        for j, i in enumerate(batch.index):
             out[i] = ys[j]
     return out
 
@@ -113,7 +91,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         of records: then ``t`` and ``conditions`` come from the records, ``input_channels`` names the
         channels used (``"x"`` and extra channels such as ``"velocity"``), and the result is a list with
         one ``(time, output_dim)`` tensor per record.
-    t : sample times ``(time,)`` [s], strictly increasing; or give ``dt`` for a uniform grid from 0.
+    t : sample times [s], strictly increasing: ``(time,)`` shared by every row or ``(batch, time)``, one grid
+        per row (records with their own timestamps); or give ``dt`` for a uniform grid from 0.
     conditions : {name: scalar or (batch,)} operating conditions for parameter functions.
     initial_state : ``(batch, 2)`` initial [x, ẋ] of an oscillator, or the full ``(batch, state_dim)``.
     method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4"; default "rk4") and
@@ -166,6 +145,9 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     if solver == "fixed":
         states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
     elif solver == "torchdiffeq":
+        if t.ndim != 1:
+            raise ValueError("solver='torchdiffeq' integrates every row on one time grid; give t as (time,) or "
+                             "simulate records with different grids separately")
         if values is not None:
             raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
         states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=rtol, atol=atol,
@@ -177,7 +159,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
 
 def _prepare(inputs, t, dt, dtype):
-    """Validated input ``(batch, time, C)`` and time grid ``(time,)``."""
+    """Validated input ``(batch, time, C)`` and time grid ``(time,)`` or ``(batch, time)``."""
     u = torch.as_tensor(inputs, dtype=dtype)
     if u.ndim == 2:
         u = u[..., None]
@@ -194,10 +176,13 @@ def _prepare(inputs, t, dt, dtype):
             raise ValueError("give the sample times t or a sample interval dt")
         t = torch.arange(T, dtype=dtype) * float(dt)
     t = torch.as_tensor(t, dtype=dtype, device=u.device)
-    if t.shape != (T,):
-        raise ValueError(f"t has shape {tuple(t.shape)} but inputs have {T} samples")
-    if not bool((t[1:] > t[:-1]).all()):
+    if t.shape not in ((T,), (u.shape[0], T)):
+        raise ValueError(f"t has shape {tuple(t.shape)} but inputs have {T} samples in {u.shape[0]} rows; give "
+                         f"({T},) for one grid or ({u.shape[0]}, {T}) for one grid per row")
+    if not bool((t[..., 1:] > t[..., :-1]).all()):
         raise ValueError("t must be strictly increasing")
+    if t.ndim == 2 and bool((t == t[:1]).all()):
+        t = t[0]  # one grid after all
     return u, t
 
 

@@ -10,7 +10,8 @@ from ..physics.models import InputSample
 def with_rates(u: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     """Complete an input ``(batch, time, C)`` with C in {1, 2, 3} to [u, u̇, ü] ``(batch, time, 3)``.
 
-    Missing rates are second-order finite differences on the (possibly non-uniform) grid ``t``.
+    Missing rates are second-order finite differences on the (possibly non-uniform) grid ``t``: one grid
+    ``(time,)`` for every row, or one per row ``(batch, time)``.
     """
     channels = u.shape[-1]
     if channels not in (1, 2, 3):
@@ -18,17 +19,44 @@ def with_rates(u: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     cols = [u[..., i] for i in range(channels)]
     edge = 2 if u.shape[1] >= 3 else 1
     while len(cols) < 3:
-        (d,) = torch.gradient(cols[-1], spacing=(t,), dim=1, edge_order=edge)
-        cols.append(d)
+        cols.append(gradient(cols[-1], t, edge))
     return torch.stack(cols, dim=-1)
 
 
+def gradient(f: torch.Tensor, t: torch.Tensor, edge_order: int = 2) -> torch.Tensor:
+    """df/dt of ``f (batch, time)`` on the grid ``t`` (``(time,)`` or ``(batch, time)``), as numpy's
+    ``gradient``: second-order central differences inside, one-sided of ``edge_order`` at the ends."""
+    if t.ndim == 1:
+        (d,) = torch.gradient(f, spacing=(t,), dim=1, edge_order=edge_order)
+        return d
+    t = t.expand_as(f)
+    if f.shape[1] < 3:
+        d = (f[:, 1:] - f[:, :-1]) / (t[:, 1:] - t[:, :-1])
+        return torch.cat([d, d[:, -1:]], dim=1) if f.shape[1] == 2 else torch.zeros_like(f)
+    h = t[:, 1:] - t[:, :-1]
+    a, b = h[:, :-1], h[:, 1:]  # the intervals left and right of each inner sample
+    inner = (a**2 * f[:, 2:] - b**2 * f[:, :-2] + (b**2 - a**2) * f[:, 1:-1]) / (a * b * (a + b))
+    if edge_order == 1:
+        first = (f[:, 1] - f[:, 0]) / h[:, 0]
+        last = (f[:, -1] - f[:, -2]) / h[:, -1]
+    else:
+        h0, h1 = h[:, 0], h[:, 1]
+        first = (-(2 * h0 + h1) / (h0 * (h0 + h1)) * f[:, 0] + (h0 + h1) / (h0 * h1) * f[:, 1]
+                 - h0 / (h1 * (h0 + h1)) * f[:, 2])
+        hm, hn = h[:, -2], h[:, -1]
+        last = (hn / (hm * (hm + hn)) * f[:, -3] - (hm + hn) / (hm * hn) * f[:, -2]
+                + (2 * hn + hm) / (hn * (hm + hn)) * f[:, -1])
+    return torch.cat([first[:, None], inner, last[:, None]], dim=1)
+
+
 def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Tensor:
-    """Linear interpolation of ``U (batch, time, C)`` at query times ``tq`` (``(batch, Q)``), held at the ends."""
-    T = t.shape[0]
-    idx = torch.searchsorted(t.contiguous(), tq.detach().contiguous(), right=True) - 1
+    """Linear interpolation of ``U (batch, time, C)`` sampled at ``t`` (``(time,)`` or ``(batch, time)``) at
+    query times ``tq`` (``(batch, Q)``), held at the ends."""
+    T = t.shape[-1]
+    grid = t.expand(U.shape[0], -1).contiguous()
+    idx = torch.searchsorted(grid, tq.detach().contiguous(), right=True) - 1
     idx = idx.clamp(0, T - 2)
-    t0, t1 = t[idx], t[idx + 1]
+    t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
     w = ((tq - t0) / (t1 - t0)).clamp(0.0, 1.0)[..., None]
     gather = lambda i: torch.gather(U, 1, i[..., None].expand(-1, -1, U.shape[-1]))  # noqa: E731
     return gather(idx) * (1 - w) + gather(idx + 1) * w
@@ -36,10 +64,11 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Ten
 
 def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
     """The input read ``tau (batch,)`` earlier: U(t − τ), held at its first value before t0."""
-    tq = t[None, :] - tau[:, None]
+    grid = t.expand(U.shape[0], -1)
+    tq = grid - tau[:, None]
     out = interpolate(U, t, tq)
     # before t0 the input is held at rest: its value persists, its rates are zero
-    before = (tq < t[0])[..., None]
+    before = (tq < grid[:, :1])[..., None]
     rates_mask = torch.tensor([False, True, True], device=U.device)
     return torch.where(before & rates_mask, torch.zeros_like(out), out)
 

@@ -7,7 +7,6 @@ import time
 from collections.abc import Sequence
 
 import lightning as L
-import numpy as np
 import torch
 from torch import nn
 
@@ -157,7 +156,7 @@ class SequenceModule(L.LightningModule):
 
 
 class NominalMixin:
-    """A nominal model simulated along the batch (grouped by time grid), on the compiled fast path."""
+    """A nominal model simulated along the batch (each row on its own time grid), on the compiled fast path."""
 
     nominal: nn.Module
 
@@ -185,31 +184,16 @@ class NominalMixin:
         """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input."""
         t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
         U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
-        cond, s0 = self.conditions(batch), self._initial_state(batch)
-        grid = np.round(t.detach().cpu().numpy(), 12)
-        groups: dict[bytes, list[int]] = {}
-        for i, row in enumerate(grid):
-            groups.setdefault(row.tobytes(), []).append(i)
-        ys, ss = [None] * t.shape[0], [None] * t.shape[0]
-        for idx in groups.values():
-            sel = torch.tensor(idx)
-            res = simulate(self.nominal, U[sel], t=t[idx[0]], conditions={k: v[sel] for k, v in cond.items()},
-                           initial_state=None if s0 is None else s0[sel], return_states=return_states, **self.sim)
-            y, s = res if return_states else (res, None)
-            for j, i in enumerate(idx):
-                ys[i] = y[j, :, 0]
-                ss[i] = None if s is None else s[j]
-        Y = torch.stack(ys)
-        return (Y, torch.stack(ss)) if return_states else Y
+        res = simulate(self.nominal, U, t=t, conditions=self.conditions(batch),  # each row on its own time grid
+                       initial_state=self._initial_state(batch), return_states=return_states, **self.sim)
+        return (res[0][..., 0], res[1]) if return_states else res[..., 0]
 
     def nominal_values(self) -> dict[str, float]:
         """Nominal parameters in their units: ``{"effect.param": value}`` for constants, and for parameters
         that are functions of a condition their value at each training condition,
         ``{"effect.param@pressure_mpa=0.03": value}`` (trajectories, TensorBoard, metrics.json)."""
-        from ..cli.common import parameter_table
-
         out, varying = {}, []
-        for e, params in parameter_table(self.nominal).items():
+        for e, params in self.nominal.parameter_table().items():
             for p, info in params.items():
                 if isinstance(info["value"], (int, float)):
                     out[f"{e}.{p}"] = float(info["value"])
@@ -235,10 +219,8 @@ class NominalMixin:
 
     def nominal_unit(self, key: str) -> str:
         """The unit of a ``nominal_values`` key (``"dahl.Fc"`` or ``"dahl.Fc@amplitude_in=1"``)."""
-        from ..cli.common import parameter_table
-
         effect, param = key.split("@")[0].split(".", 1)
-        return parameter_table(self.nominal).get(effect, {}).get(param, {}).get("unit", "")
+        return self.nominal.parameter_table().get(effect, {}).get(param, {}).get("unit", "")
 
     def on_train_batch_end(self, outputs, batch, batch_idx):
         from ..physics.parameters import project_to_bounds

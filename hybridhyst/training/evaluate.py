@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pandas as pd
 import torch
 
-from ..analysis.metrics import mae, nrmse, rmse
+from ..analysis.metrics import split_metrics
 
 __all__ = ["predict_split", "split_metrics", "predictions_frame"]
 
@@ -35,31 +33,6 @@ def predict_split(module, dm, split: str) -> list[dict]:
                             "warmup": rec.warmup})
     finally:
         module.train(was_training)
-    return out
-
-
-def _metrics(pred: np.ndarray, y: np.ndarray) -> dict:
-    finite = bool(np.isfinite(pred).all())
-    if not finite:
-        return {"rmse": math.inf, "mae": math.inf, "nrmse": math.inf, "n": int(y.size)}
-    return {"rmse": rmse(pred, y), "mae": mae(pred, y), "nrmse": nrmse(pred, y), "n": int(y.size)}
-
-
-def split_metrics(preds: list[dict]) -> dict:
-    """Pooled metrics over every scored sample of the split (after each record's ``warmup``), and per
-    condition label (records pooled)."""
-    if not preds:
-        return {}
-
-    def pooled(sel, key):
-        return np.concatenate([np.asarray(p[key])[int(p.get("warmup") or 0):] for p in sel])
-
-    out = _metrics(pooled(preds, "y_pred"), pooled(preds, "y"))
-    per: dict[str, dict] = {}
-    for label in dict.fromkeys(p["condition"] for p in preds):
-        sel = [p for p in preds if p["condition"] == label]
-        per[label] = _metrics(pooled(sel, "y_pred"), pooled(sel, "y"))
-    out["per_condition"] = per
     return out
 
 

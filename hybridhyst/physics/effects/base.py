@@ -24,7 +24,8 @@ from torch import nn
 from ..parameters import Fixed, ParameterSpec, build_function, render_unit
 
 __all__ = [
-    "Effect", "Kinematics", "abs_pow", "absolute", "exp", "rates", "sigmoid", "sign", "smooth_sign", "tanh",
+    "Effect", "Kinematics", "abs_pow", "absolute", "clamp", "exp", "rates", "sigmoid", "sign", "smooth_sign", "step",
+    "tanh",
 ]
 
 
@@ -77,6 +78,17 @@ def absolute(x):
 
 def sign(x):
     return x.sign() if isinstance(x, torch.Tensor) else _symbolic().sign(x)
+
+
+def step(x):
+    """The unit step: 1 where x ≥ 0, else 0 (derivative 0)."""
+    return (x >= 0).to(x.dtype) if isinstance(x, torch.Tensor) else _symbolic().step(x)
+
+
+def clamp(x, lo, hi):
+    """x limited to [lo, hi] (lo ≤ hi), written with steps so that both paths share it: derivative 1 inside,
+    and with respect to the bound that is active outside."""
+    return x - (x - hi) * step(x - hi) + (lo - x) * step(lo - x)
 
 
 def rates(*columns):
@@ -161,6 +173,12 @@ class Effect(nn.Module):
 
     def force(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> torch.Tensor | None:
         """Resisting force ``(batch,)`` in response units, or None when the effect adds no force."""
+        return None
+
+    def state_bounds(self, p: dict[str, torch.Tensor]) -> list[tuple] | None:
+        """Bounds ``[(lower, upper)]`` per state component (``(batch,)`` tensors, or None for unbounded), or
+        None. The simulator projects the state onto them after every step: a rate-independent operator (the
+        play) is then exact at any step size instead of a stiff smoothed ODE."""
         return None
 
     def transform(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> Kinematics:

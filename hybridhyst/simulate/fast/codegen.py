@@ -27,6 +27,9 @@ class _Printer(PythonCodePrinter):
     def _print_Sign(self, expr):
         return f"_sign({self._print(expr.args[0])})"
 
+    def _print_Step(self, expr):
+        return f"_step({self._print(expr.args[0])})"
+
     def _print_Absolute(self, expr):
         return f"abs({self._print(expr.args[0])})"
 
@@ -64,10 +67,16 @@ def generate_source(eq: Equations) -> str:
     f_full = f_t + jac(eq.rhs, eq.state, "fs") + jac(eq.rhs, eq.params, "fth") + jac(eq.rhs, eq.inputs, "fin")
     g_full = (g_t + jac(eq.outputs, eq.state, "gs") + jac(eq.outputs, eq.params, "gth")
               + jac(eq.outputs, eq.inputs, "gin"))
+    big = sp.Float(1e300)  # an unbounded state: a bound no state reaches
+    lower = [(f"lo[{i}]", -big if e is None else e) for i, e in enumerate(eq.lower or [None] * n_state)]
+    upper = [(f"hi[{i}]", big if e is None else e) for i, e in enumerate(eq.upper or [None] * n_state)]
+    b_full = lower + upper + jac([e for _, e in lower], eq.params, "dlo") + jac([e for _, e in upper], eq.params, "dhi")
     parts = [
         HEADER,
         f"S, P, O = {n_state}, {n_param}, {n_out}",
         f"PARALLEL = {bool(PARALLEL)}",
+        f"HAS_BOUNDS = {eq.lower is not None}",
+        _kernel("bounds", args + ["lo", "hi", "dlo", "dhi"], b_full, printer, eq),
         _kernel("rhs", args + ["f"], f_t, printer, eq),
         _kernel("rhs_jac", args + ["f", "fs", "fth", "fin"], f_full, printer, eq),
         _kernel("out", args + ["g"], g_t, printer, eq),
@@ -130,6 +139,11 @@ def _sign(x):
 
 
 @njit(cache=True, inline='always', error_model='numpy')
+def _step(x):
+    return 1.0 if x >= 0 else 0.0
+
+
+@njit(cache=True, inline='always', error_model='numpy')
 def _abs_pow(z, n):
     a = abs(z)
     return a ** n if a > 0 else 0.0
@@ -142,7 +156,8 @@ def _abs_pow_log(z, n):
 
 LOOPS = '''@njit(cache=True, parallel=PARALLEL, error_model='numpy')
 def forward(U, h, th, s0, c, A, bw, sub, states, y):
-    """States at sample times and outputs; U (B,T,3), h (T-1,), th (B,P), s0 (B,S). Rows in parallel."""
+    """States at sample times and outputs; U (B,T,3), h (B,T-1) (each row its own grid), th (B,P), s0 (B,S).
+    Rows in parallel."""
     for b in prange(U.shape[0]):
         forward_row(b, U, h, th, s0, c, A, bw, sub, states, y)
 
@@ -186,6 +201,20 @@ def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub):
         st[i] += hk * acc
 
 
+@njit(cache=True, inline='always', error_model='numpy')
+def project(st, lo, hi, fl):
+    """Project the state onto its bounds; fl[i] = 1 / -1 where the upper / lower bound was taken, else 0."""
+    for i in range(S):
+        if st[i] > hi[i]:
+            st[i] = hi[i]
+            fl[i] = 1.0
+        elif st[i] < lo[i]:
+            st[i] = lo[i]
+            fl[i] = -1.0
+        else:
+            fl[i] = 0.0
+
+
 @njit(cache=True, error_model='numpy')
 def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     T = U.shape[1]
@@ -193,10 +222,16 @@ def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     Y = np.zeros(S)
     st = s0[b].copy()
     g = np.zeros(O)
+    lo, hi, fl = np.zeros(S), np.zeros(S), np.zeros(S)
+    dlo, dhi = np.zeros((S, P)), np.zeros((S, P))
+    if HAS_BOUNDS:
+        bounds(st, 0.0, 0.0, 0.0, th[b], lo, hi, dlo, dhi)
     states[b, 0, :] = st
     for k in range(T - 1):
         for m in range(sub):
-            substep(b, k, m, st, K, Y, h[k] / sub, U, th, c, A, bw, sub)
+            substep(b, k, m, st, K, Y, h[b, k] / sub, U, th, c, A, bw, sub)
+            if HAS_BOUNDS:
+                project(st, lo, hi, fl)
         states[b, k + 1, :] = st
     for k in range(T):
         out(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g)
@@ -222,6 +257,10 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     lamK = np.zeros((nst, S))
     lamY = np.zeros(S)
     st = np.zeros(S)
+    lo, hi, flags = np.zeros(S), np.zeros(S), np.zeros((sub, S))
+    dlo, dhi = np.zeros((S, P)), np.zeros((S, P))
+    if HAS_BOUNDS:
+        bounds(states[b, 0], 0.0, 0.0, 0.0, th[b], lo, hi, dlo, dhi)
     for k in range(T - 1, -1, -1):
         # output y_k = g(s_k, U_k, th)
         out_jac(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, gs, gt, gi)
@@ -237,13 +276,21 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
         if k == 0:
             break
         kk = k - 1
-        hk = h[kk] / sub
+        hk = h[b, kk] / sub
         # recover the start state of every sub-step of interval kk
         st[:] = states[b, kk]
         for m in range(sub):
             sub_start[m, :] = st
             substep(b, kk, m, st, K, Y, hk, U, th, c, A, bw, sub)
+            if HAS_BOUNDS:
+                project(st, lo, hi, flags[m])
         for m in range(sub - 1, -1, -1):
+            if HAS_BOUNDS:  # adjoint of the projection: a state held at a bound follows the bound
+                for i in range(S):
+                    if flags[m, i] != 0.0:
+                        for p in range(P):
+                            gth[b, p] += (dhi[i, p] if flags[m, i] > 0 else dlo[i, p]) * lam[i]
+                        lam[i] = 0.0
             # stages of sub-step m with their Jacobians
             for j in range(nst):
                 stage_state(sub_start[m], K, j, hk, A, Yst[j])

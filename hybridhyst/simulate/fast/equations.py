@@ -23,6 +23,8 @@ class Equations:
     param_keys: list  # [(effect key or "structure", name)] in the order of ``params``
     rhs: list  # ds/dt (S)
     outputs: list  # model outputs (O)
+    lower: list | None = None  # per state: lower bound (an expression of the parameters) or None; None: no bounds
+    upper: list | None = None
 
 
 def _param_symbols(model):
@@ -62,11 +64,14 @@ def build_equations(model) -> Equations:
     u, du, ddu = sp.symbols("u du ddu", real=True)
     state = list(sp.symbols(f"s0:{model.state_dim}", real=True)) if model.state_dim else []
     keys, params, P = _param_symbols(model)
+    bounds = model.state_bounds(P)
+    lower = None if bounds is None else [b[0] for b in bounds]
+    upper = None if bounds is None else [b[1] for b in bounds]
     if isinstance(model, Constitutive):
         kin = Kinematics(x=u, v=du, u=u, du=du, a=ddu)
         force, mass, rates = _effects_pass(model, kin, state, P)
         out = force + (mass * ddu if mass is not None else 0)
-        return Equations(state, [u, du, ddu], params, keys, rates, [out])
+        return Equations(state, [u, du, ddu], params, keys, rates, [out], lower, upper)
     x, v = state[0], state[1]
     if model.excitation == "base":
         kin = Kinematics(x=x - u, v=v - du, u=u, du=du, a=sp.S.Zero)
@@ -77,4 +82,5 @@ def build_equations(model) -> Equations:
     drive = P[STRUCTURE]["drive_gain"] * u if model.excitation == "force" else 0
     acc = (drive - force) / m
     channels = {"x": x, "v": v, "a": acc, "force": force}
-    return Equations(state, [u, du, ddu], params, keys, [v, acc, *rates], [channels[o] for o in model.outputs])
+    return Equations(state, [u, du, ddu], params, keys, [v, acc, *rates], [channels[o] for o in model.outputs],
+                     lower, upper)

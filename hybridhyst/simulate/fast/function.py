@@ -80,7 +80,7 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
     B = U.shape[0]
     theta = torch.stack([P[key][name].expand(B) for key, name in eq.param_keys], dim=1) if eq.param_keys \
         else U.new_zeros(B, 0)
-    h = t[1:] - t[:-1]
+    h = (t[..., 1:] - t[..., :-1]).expand(B, -1).contiguous()  # (batch, time - 1): each row its own grid
     y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
                                     model.output_dim)
     return (y, states) if return_states else y
