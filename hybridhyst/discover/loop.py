@@ -24,12 +24,11 @@ import torch
 from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
 from ..identify import identify
-from ..identify.identify import RecordsProblem
-from ..identify.refine import levenberg_marquardt
-from ..identify.space import SearchSpace
 from ..simulate import simulate
-from .candidates import Candidate, Scales, library_candidates
+from .candidates import Scales, library_candidates
 from .diagnose import diagnose
+from .fitting import Fit, fit_candidate, polish
+from .trends import MIN_LEVELS, fit_trends
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
 
@@ -90,74 +89,40 @@ def _numeric_conditions(records) -> dict[str, list[float]]:
     return {k: v for k, v in out.items() if len(v) == len(records)}
 
 
-def _sse(problem: RecordsProblem, x: torch.Tensor) -> float:
-    with torch.no_grad():
-        c = float(problem.cost(x[None])[0])
-    return c * problem.n_samples if math.isfinite(c) else math.inf
-
-
-def _converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tensor, lm_steps: int,
-                  rounds: int = 4, rtol: float = 1e-3):
-    """Batched LM in rounds of ``lm_steps`` iterations, continued while the best cost still falls by more
-    than ``rtol`` (relative) per round, at most ``rounds`` rounds. A fixed budget can stop a fit halfway
-    down a long valley (a new hysteretic state pulling the damping and stiffness with it); the next
-    candidate would then get the credit for finishing it."""
-    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, progress=False)
-    for _ in range(rounds - 1):
-        if not math.isfinite(lm.cost):
-            break
-        more = levenberg_marquardt(problem.residuals, space, lm.X, iters=lm_steps, progress=False)
-        done = more.cost > (1 - rtol) * lm.cost
-        lm = more  # each row continues from its own end, so no row gets worse
-        if done:
-            break
-    return lm
-
-
-def _fit_new(candidate: Candidate, model, train, sim, lm_steps, box_factor) -> tuple[float, object, dict]:
-    """Fit the model augmented by ``candidate``: every coordinate free (the new ones within the candidate's
-    bounds, the others in a box around their fitted values), one batched Levenberg–Marquardt whose rows
-    start from the fitted values with each of the candidate's starts. Returns (SSE, model, coordinates).
-
-    Freeing the old coordinates matters: a nominal fitted without friction has, say, an inflated viscous
-    coefficient, which the new Coulomb term can only replace if that coefficient may come down. Before the
-    joint fit, ``lm_steps // 2`` iterations move only the old coordinates with the new effect held at each
-    start: a start that is not neutral (a Bouc–Wen element adds its initial stiffness k) is first absorbed
-    by the fitted model (the linear spring gives up that stiffness), so the joint fit starts near the
-    fitted response instead of in another basin. On the Bouc–Wen benchmark this is the difference between
-    finding the hysteresis and not (experiments/boucwen_discovery)."""
-    aug = candidate.build(model)
-    space = SearchSpace(aug, bounds=candidate.bounds, factor=box_factor)
-    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    current = dict(zip(space.names, space.initial().tolist()))
-    starts = torch.tensor([[s.get(n, current[n]) for n in space.names] for s in candidate.starts],
-                          dtype=torch.float64).clamp(space.lower, space.upper)
-    old = torch.tensor([n not in candidate.free for n in space.names])
-    if bool(old.any()):  # re-balance the fitted coordinates against each start of the new effect
-        starts = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
-                                     progress=False).X
-    lm = _converged_lm(problem, space, starts, lm_steps)
-    if not math.isfinite(lm.cost):
-        return math.inf, None, {}
-    space.to_model(lm.x)
-    return lm.cost * problem.n_samples, aug, dict(zip(space.names, lm.x.tolist()))
-
-
-def _polish(model, train, sim, lm_steps, box_factor) -> tuple[float, int]:
-    """Refit the current model (every coordinate, LM from its values) so that its training error is
-    converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
-    for finishing the previous fit. Returns (SSE, number of coordinates); the model is updated in place."""
-    space = SearchSpace(model, factor=box_factor)
-    problem = RecordsProblem(space, train, method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    x0 = space.initial().clamp(space.lower, space.upper)
-    lm = _converged_lm(problem, space, x0[None], lm_steps)
-    x = lm.x if math.isfinite(lm.cost) and lm.cost <= _sse(problem, x0) / problem.n_samples else x0
-    space.to_model(x)
-    return _sse(problem, x), space.dim
-
-
 def _rmse_of(model, records, sim) -> float:
     return _metrics(records, _predict(model, records, sim)).get("rmse", math.inf) if records else math.inf
+
+
+def _at(sim: dict, fit: Fit) -> dict:
+    """Simulator settings for a fitted model (its own sub-steps per sample)."""
+    return {**sim, "substeps": fit.substeps}
+
+
+def _prune(fit: Fit, train, scored, sim, n_train, opts, ic, val_rmse, progress):
+    """Drop every effect whose contribution vanished: refit without it, and remove it when the information
+    criterion falls and the validation error rises by less than half the margin. Repeats until nothing goes.
+    Returns (fit, ic, val_rmse, removed entries)."""
+    removed = []
+    while len(fit.model.effects) > 1:
+        best = None
+        for key in _progress(list(fit.model.effects), progress, "prune"):
+            reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
+            try:
+                f = polish(reduced, train, _at(sim, fit), opts["lm_steps"], opts["box_factor"])
+            except (ValueError, RuntimeError):
+                continue
+            f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
+            f_val = _rmse_of(f.model, scored, _at(sim, f))
+            if f_ic < ic and f_val <= (1 + opts["margin"] / 2) * val_rmse and (best is None or f_ic < best[1]):
+                best = (key, f_ic, f_val, f)
+        if best is None:
+            break
+        key, ic, new_val, f = best
+        removed.append({"effect": fit.model.effects[key].name, "key": key, "kind": "removed",
+                        "val_rmse_before": val_rmse, "val_rmse_after": new_val,
+                        "train_rmse": math.sqrt(f.sse / n_train)})
+        fit, val_rmse = f, new_val
+    return fit, ic, val_rmse, removed
 
 
 def _parameters(model) -> dict:
@@ -223,17 +188,18 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     scored = val or train
     splits = {"train": train, "val": val, "test": test}
 
-    def evaluate(m):  # predictions of every split (simulated once) and their metrics
-        preds = {s: _predict(m, rs, sim) for s, rs in splits.items()}
+    def evaluate(m, at):  # predictions of every split (simulated once) and their metrics
+        preds = {s: _predict(m, rs, at) for s, rs in splits.items()}
         return preds, {s: _metrics(splits[s], preds[s], label_conditions) for s in splits}
 
-    sse, k = _polish(model, train, sim, lm_steps, box_factor)
-    initial = copy.deepcopy(model)  # "before": the nominal as fitted (identified, then polished)
-    preds_before, before = evaluate(initial)
-    ic = information_criterion(sse, n_train, k, criterion)
+    opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion}
+    fit = polish(model, train, sim, lm_steps, box_factor)
+    initial, initial_sim = copy.deepcopy(fit.model), _at(sim, fit)  # "before": the nominal as fitted
+    preds_before, before = evaluate(initial, initial_sim)
+    ic = information_criterion(fit.sse, n_train, fit.k, criterion)
     val_rmse = before["val" if val else "train"]["rmse"]
     diag_before = diagnose(train, preds_before["train"], noise_sd)
-    steps, rejected = [], []
+    steps, rejected, removed = [], [], []
     tried = set()
     from ..physics.models import DrivenOscillator
 
@@ -245,51 +211,79 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             raise ValueError(f"condition(s) {missing} are not numeric conditions of every training record; "
                              f"available: {sorted(cond_values)}")
         cond_values = {c: cond_values[c] for c in conditions}
+    # conditions with enough levels get their trends in one step (every parameter at once); the others keep
+    # the one-parameter-at-a-time candidates
+    for cond in [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]:
+        res = fit_trends(fit, train, sim, cond, lm_steps, box_factor)
+        cond_values.pop(cond)
+        if res is None:
+            continue
+        t_fit, chosen = res
+        t_val, t_ic = _rmse_of(t_fit.model, scored, _at(sim, t_fit)), information_criterion(
+            t_fit.sse, n_train, t_fit.k, criterion)
+        accepted = t_val < (1 - margin) * val_rmse and t_ic < ic
+        entry = {"effect": f"trends~{cond}", "kind": "trend", "description": f"parameters as functions of {cond}",
+                 "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
+                                                f"{criterion}_before": ic, f"{criterion}_after": t_ic},
+                 "parameters": _parameters(t_fit.model), "train_rmse": math.sqrt(t_fit.sse / n_train),
+                 "val_rmse": t_val if val else None, "accepted": accepted,
+                 "test_rmse": _rmse_of(t_fit.model, test, _at(sim, t_fit)) if test else None}
+        (steps if accepted else rejected).append(entry)
+        if accepted:
+            fit, ic, val_rmse = t_fit, t_ic, t_val
     for _step in range(int(max_steps)):
-        cands = [c for c in library_candidates(model, scales, cond_values, candidates) if c.name not in tried]
+        cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
         if not cands:
             break
         ranking = []
         for cand in _progress(cands, progress, "rank candidates"):
             try:
-                c_sse, aug, coords = _fit_new(cand, model, train, sim, lm_steps, box_factor)
-            except (ValueError, RuntimeError) as exc:  # a candidate that cannot be simulated is skipped
-                c_sse, aug, coords = math.inf, None, {"error": str(exc)}
-            ranking.append((cand, c_sse, aug, coords))
-        ranking.sort(key=lambda item: item[1])
-        evidence = {c.name: (1 - s / sse if math.isfinite(s) and sse > 0 else None) for c, s, _, _ in ranking}
-        finals = [(cand, aug, c_sse, len(coords), coords, _rmse_of(aug, scored, sim))
-                  for cand, c_sse, aug, coords in ranking[: int(top)] if aug is not None]
+                c_fit = fit_candidate(cand, fit.model, train, _at(sim, fit), lm_steps, box_factor)
+            except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
+                c_fit = None
+            ranking.append((cand, c_fit))
+        ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
+        evidence = {c.name: (1 - f.sse / fit.sse if f is not None and fit.sse > 0 else None) for c, f in ranking}
+        finals = [(cand, f, _rmse_of(f.model, scored, _at(sim, f)))
+                  for cand, f in ranking[: int(top)] if f is not None]
         if not finals:
             break
         # the lowest validation error; among candidates validation cannot tell apart (within the margin),
         # the lowest information criterion (the most parsimonious explanation)
-        best_val = min(f[5] for f in finals)
-        close = [f for f in finals if f[5] <= (1 + margin) * best_val]
-        cand, aug, f_sse, f_k, f_coords, f_val = min(
-            close, key=lambda f: information_criterion(f[2], n_train, f[3], criterion))
-        f_ic = information_criterion(f_sse, n_train, f_k, criterion)
+        best_val = min(f[2] for f in finals)
+        close = [f for f in finals if f[2] <= (1 + margin) * best_val]
+        cand, c_fit, f_val = min(close, key=lambda f: information_criterion(f[1].sse, n_train, f[1].k, criterion))
+        f_ic = information_criterion(c_fit.sse, n_train, c_fit.k, criterion)
         accepted = f_val < (1 - margin) * val_rmse and f_ic < ic
         entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,
                  "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
                               "val_rmse_before": val_rmse, "val_rmse_after": f_val,
                               f"{criterion}_before": ic, f"{criterion}_after": f_ic,
                               "refitted": [f[0].name for f in finals]},
-                 "parameters": {k: v for k, v in _parameters(aug).items()},
-                 "new_coordinates": {n: f_coords.get(n) for n in cand.free},
-                 "train_rmse": math.sqrt(f_sse / n_train) if math.isfinite(f_sse) else math.inf,
+                 "parameters": _parameters(c_fit.model),
+                 "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
+                 "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,
                  "val_rmse": f_val if val else None,
-                 "test_rmse": _rmse_of(aug, test, sim) if test else None, "accepted": accepted}
+                 "test_rmse": _rmse_of(c_fit.model, test, _at(sim, c_fit)) if test else None, "accepted": accepted}
         if not accepted:
             rejected.append(entry)
             break
         steps.append(entry)
         tried.add(cand.name)
-        model = aug
-        sse, k = _polish(model, train, sim, lm_steps, box_factor)
-        ic, val_rmse = information_criterion(sse, n_train, k, criterion), _rmse_of(model, scored, sim)
-    preds_after, after = evaluate(model)
+        fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
+        ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), _rmse_of(fit.model, scored,
+                                                                                             _at(sim, fit))
+        fit, ic, val_rmse, gone = _prune(fit, train, scored, sim, n_train, opts, ic, val_rmse, progress)
+        for g in gone:
+            g["after_step"] = len(steps)
+            tried.add(g["effect"])  # not offered again
+        removed += gone
+    model = fit.model
+    preds_after, after = evaluate(model, _at(sim, fit))
     diag_after = diagnose(train, preds_after["train"], noise_sd)
+    network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
+    nominal_effects = {e.name for e in initial.effects.values()}
+    final_effects = [e.name for e in model.effects.values()]
     report = {
         "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
                    "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
@@ -297,21 +291,38 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
                   "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
                   "parameters": _parameters(model), "diagnostics": diag_after},
-        "steps": steps, "rejected": rejected,
+        "steps": steps, "rejected": rejected, "removed": removed,
+        "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
+                    "added": [e for e in final_effects if e not in nominal_effects],
+                    "dropped": sorted(nominal_effects - set(final_effects))},
         "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": noise_sd,
                         "dependence": diag_after["dependence"], "whiteness": diag_after["whiteness"],
-                        "where": diag_after["where"],
-                        "residual_network": residual_network(train, preds_after["train"], val or None,
-                                                             preds_after["val"] or None)},
+                        "where": diag_after["where"], "residual_network": network,
+                        "structure_flagged": structure_flagged(network, after["train"]["rmse"], noise_sd)},
         "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
                      "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
-                     "backend": backend, "substeps": substeps},
+                     "backend": backend, "substeps": substeps, "substeps_final": fit.substeps},
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
         "wall_s": time.perf_counter() - start,
     }
     return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
                            splits=splits, initial_model=initial)
+
+
+FLAG_SHARE = 0.1  # residual variance a small network recovers on validation above which structure is flagged
+
+
+def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) -> bool:
+    """True when structure is left that the library did not name: the residual network recovers more than
+    ``FLAG_SHARE`` of the remaining residual's variance on validation records (and, with a known noise level,
+    the training error is above 1.2 × noise)."""
+    share = network.get("explained_share")
+    if share is None or not math.isfinite(share):
+        return False
+    if noise_sd is not None and train_rmse <= 1.2 * float(noise_sd):
+        return False
+    return share > FLAG_SHARE
 
 
 def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:

@@ -1,0 +1,149 @@
+"""Fits inside the discovery loop: a candidate's refit (global search over its new coordinates, re-balance,
+joint Levenberg–Marquardt until converged), the polish of the current model, and the step-doubling check
+that the simulator resolves a fitted model at the sample rate of the data.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import torch
+
+from ..identify.identify import RecordsProblem
+from ..identify.refine import levenberg_marquardt
+from ..identify.space import SearchSpace
+
+__all__ = ["Fit", "fit_candidate", "polish", "search_points"]
+
+MAX_SUBSTEPS = 16  # the step-doubling check stops here
+RESOLVED = 0.02  # relative change of the SSE under halved steps below which a fit counts as resolved
+
+
+@dataclass
+class Fit:
+    """A fitted model: its training SSE, number of free coordinates, coordinates and sub-steps per sample."""
+
+    model: object
+    sse: float
+    k: int
+    coords: dict = field(default_factory=dict)
+    substeps: int = 1
+
+
+def _problem(space, train, sim, substeps):
+    return RecordsProblem(space, train, method=sim["method"], substeps=substeps, backend=sim["backend"])
+
+
+def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
+    """SSE of each row of ``X (N, D)`` (inf where the simulation is not finite)."""
+    with torch.no_grad():
+        c = problem.cost(X)
+    return torch.where(torch.isfinite(c), c * problem.n_samples, torch.full_like(c, math.inf))
+
+
+def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tensor, lm_steps: int,
+                 rounds: int = 4, rtol: float = 1e-3, free: torch.Tensor | None = None):
+    """Batched LM in rounds of ``lm_steps`` iterations, continued while the best cost still falls by more
+    than ``rtol`` (relative) per round, at most ``rounds`` rounds. A fixed budget can stop a fit halfway
+    down a long valley (a new hysteretic state pulling the damping and stiffness with it); the next
+    candidate would then get the credit for finishing it."""
+    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False)
+    for _ in range(rounds - 1):
+        if not math.isfinite(lm.cost):
+            break
+        more = levenberg_marquardt(problem.residuals, space, lm.X, iters=lm_steps, free=free, progress=False)
+        done = more.cost > (1 - rtol) * lm.cost
+        lm = more  # each row continues from its own end, so no row gets worse
+        if done:
+            break
+    return lm
+
+
+def search_points(space: SearchSpace, free: list[str], x0: torch.Tensor, n: int, seed: int = 0) -> torch.Tensor:
+    """``n`` scrambled-Sobol points ``(n, D)`` over the box of the ``free`` coordinates (log scale where the
+    space is), every other coordinate at ``x0``."""
+    idx = [space.names.index(f) for f in free]
+    X = x0.expand(n, -1).clone()
+    if not idx:
+        return X
+    U = space.to_unit(x0[None]).expand(n, -1).clone()
+    U[:, idx] = torch.quasirandom.SobolEngine(len(idx), scramble=True, seed=seed).draw(n).to(torch.float64)
+    X[:, idx] = space.from_unit(U)[:, idx]
+    return X
+
+
+def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float, search: int = 24,
+                  keep: int = 3) -> Fit | None:
+    """Fit the model augmented by ``candidate`` with every coordinate free; None if nothing simulates.
+
+    1. *Global search over the new coordinates*: the candidate's heuristic starts and ``search`` Sobol points
+       over the box of its new coordinates (a gap, a Stribeck speed, a drift scale make non-convex costs
+       that a local fit from a wrong start misses), the fitted coordinates held; one batched evaluation.
+    2. *Re-balance*: from the ``keep`` best, ``lm_steps // 2`` LM iterations move only the fitted
+       coordinates (a new element's stiffness is given up by the old spring), so the joint fit starts near
+       the fitted response instead of in another basin.
+    3. *Joint LM* from those rows, continued until converged; then the step-doubling check (``resolve``).
+    """
+    aug = candidate.build(model)
+    space = SearchSpace(aug, bounds=candidate.bounds, factor=box_factor)
+    problem = _problem(space, train, sim, sim["substeps"])
+    x0 = space.initial().clamp(space.lower, space.upper)
+    current = dict(zip(space.names, x0.tolist()))
+    starts = torch.tensor([[s.get(n, current[n]) for n in space.names] for s in candidate.starts],
+                          dtype=torch.float64).clamp(space.lower, space.upper)
+    if search:
+        starts = torch.cat([starts, search_points(space, candidate.free, x0, search)])
+    costs = _sse(problem, starts)
+    order = torch.argsort(costs)[:keep]
+    order = order[torch.isfinite(costs[order])]
+    if len(order) == 0:
+        return None
+    starts = starts[order]
+    old = torch.tensor([n not in candidate.free for n in space.names])
+    if bool(old.any()):
+        starts = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
+                                     progress=False).X
+    lm = converged_lm(problem, space, starts, lm_steps)
+    if not math.isfinite(lm.cost):
+        return None
+    fit = resolve(space, train, sim, lm.x, lm_steps)
+    return fit if fit is not None and math.isfinite(fit.sse) else None
+
+
+def polish(model, train, sim, lm_steps: int, box_factor: float) -> Fit:
+    """Refit the current model (every coordinate, LM from its values) so that its training error is
+    converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
+    for finishing the previous fit. The model is updated in place."""
+    space = SearchSpace(model, factor=box_factor)
+    problem = _problem(space, train, sim, sim["substeps"])
+    x0 = space.initial().clamp(space.lower, space.upper)
+    lm = converged_lm(problem, space, x0[None], lm_steps)
+    x = lm.x if math.isfinite(lm.cost) and lm.cost * problem.n_samples <= float(_sse(problem, x0[None])[0]) else x0
+    fit = resolve(space, train, sim, x, lm_steps)
+    if fit is None:  # keep the model as it was
+        space.to_model(x0)
+        return Fit(model, float(_sse(problem, x0[None])[0]), space.dim, {}, sim["substeps"])
+    return fit
+
+
+def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> Fit | None:
+    """Step doubling: while halving the step changes the training SSE by more than ``RESOLVED`` (relative),
+    double the sub-steps per sample and refit from ``x`` (at most ``MAX_SUBSTEPS``). A stiff state (a
+    presliding Dahl or LuGre bristle, a sharp Bouc–Wen loop) fitted on a coarse grid is otherwise shaped by
+    the integrator's error, not by the data; the user never chooses sub-steps per data set."""
+    substeps = int(sim["substeps"])
+    problem = _problem(space, train, sim, substeps)
+    sse = float(_sse(problem, x[None])[0])
+    while substeps < MAX_SUBSTEPS:
+        finer = _problem(space, train, sim, 2 * substeps)
+        sse_fine = float(_sse(finer, x[None])[0])
+        if math.isfinite(sse) and abs(sse_fine - sse) <= RESOLVED * max(sse, 1e-300):
+            break
+        substeps, problem = 2 * substeps, finer
+        lm = converged_lm(problem, space, x[None], lm_steps)
+        x, sse = (lm.x, lm.cost * problem.n_samples) if math.isfinite(lm.cost) else (x, sse_fine)
+    if not math.isfinite(sse):
+        return None
+    space.to_model(x)
+    return Fit(space.model, sse, space.dim, dict(zip(space.names, x.tolist())), substeps)

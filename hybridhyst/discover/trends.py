@@ -1,0 +1,84 @@
+"""Dependence of the nominal's parameters on an operating condition, chosen in one step.
+
+Instead of making one parameter at a time a function of the condition (each competing with the effects for
+a step), every constant parameter is first identified per condition level (``PerCondition``, one joint fit),
+then each parameter's values across the levels choose their own trend — constant, linear or exponential —
+by BIC over the levels, and the model with those trends is refitted.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics.parameters import Constant, ExpGrowth, Linear, PerCondition
+from .fitting import Fit, polish
+
+__all__ = ["choose_trend", "fit_trends"]
+
+MIN_LEVELS = 3  # a trend needs at least three levels to be told from a constant by more than its two points
+
+
+def _bic(rss: float, n: int, k: int) -> float:
+    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+
+
+def choose_trend(c: np.ndarray, y: np.ndarray) -> tuple[str, dict]:
+    """The trend of values ``y`` at levels ``c`` with the lowest BIC over the levels: ``("constant",
+    {"value"})``, ``("linear", {"slope", "intercept"})`` or ``("exponential", {"a", "b"})`` (y = a exp(b c),
+    tried when every value has the same sign)."""
+    c, y = np.asarray(c, float), np.asarray(y, float)
+    n = len(c)
+    fits = {"constant": ({"value": float(y.mean())}, float(np.sum((y - y.mean()) ** 2)), 1)}
+    slope, intercept = np.polyfit(c, y, 1)
+    fits["linear"] = ({"slope": float(slope), "intercept": float(intercept)},
+                      float(np.sum((y - (intercept + slope * c)) ** 2)), 2)
+    if np.all(y > 0) or np.all(y < 0):
+        s = np.sign(y[0])
+        b, log_a = np.polyfit(c, np.log(np.abs(y)), 1)
+        a = s * math.exp(log_a)
+        fits["exponential"] = ({"a": float(a), "b": float(b)}, float(np.sum((y - a * np.exp(b * c)) ** 2)), 2)
+    scale = float(np.mean(y**2)) or 1.0
+    name = min(fits, key=lambda k: _bic(fits[k][1] + 1e-12 * scale * n, n, fits[k][2]))
+    return name, fits[name][0]
+
+
+def _free_constants(model):
+    return [(key, pname) for key, effect in model.effects.items() for pname, fn in effect.params.items()
+            if isinstance(fn, Constant)]
+
+
+def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_factor: float):
+    """Per-condition identification of every constant parameter, then a trend per parameter; returns
+    ``(Fit of the model with trends, {"effect.param": trend})`` or None (fewer than ``MIN_LEVELS`` levels, or
+    no constant parameter)."""
+    values = [float(r.conditions[condition]) for r in train]
+    levels = sorted(set(values))
+    params = _free_constants(fit.model)
+    if len(levels) < MIN_LEVELS or not params:
+        return None
+    per = fit.model.with_effects(dict(fit.model.effects.items()))
+    for key, pname in params:
+        effect = per.effects[key]
+        value = float(effect.params[pname].value.detach())
+        effect.params[pname] = PerCondition(levels, value, condition, effect.param_specs[pname]).to(
+            effect.params[pname].value.dtype)
+    per_fit = polish(per, train, {**sim, "substeps": fit.substeps}, lm_steps, box_factor)
+    trended = fit.model.with_effects(dict(fit.model.effects.items()))
+    chosen = {}
+    for key, pname in params:
+        y = per_fit.model.effects[key].params[pname].values.detach().numpy()
+        kind, coef = choose_trend(np.asarray(levels), y)
+        chosen[f"{key}.{pname}"] = kind
+        effect = trended.effects[key]
+        dtype = effect.params[pname].value.dtype
+        if kind == "linear":
+            effect.params[pname] = Linear(coef["slope"], coef["intercept"], condition).to(dtype)
+        elif kind == "exponential":
+            effect.params[pname] = ExpGrowth(0.0, coef["a"], coef["b"], condition).to(dtype)
+        else:
+            effect.params[pname] = Constant(coef["value"], effect.param_specs[pname]).to(dtype)
+    if all(kind == "constant" for kind in chosen.values()):
+        return None
+    return polish(trended, train, {**sim, "substeps": per_fit.substeps}, lm_steps, box_factor), chosen
