@@ -108,6 +108,11 @@ def test_bad_input_is_a_clear_error(float64):
         discover(records, base_model(None), split=SPLIT, conditions=["tension"], **FAST)
     from hybridhyst.physics.build import build_model
 
+    trended = build_model("constitutive", {"v": {"effect": "viscous", "c": {"kind": "linear", "slope": 0.1,
+                                                                          "intercept": 0.5, "condition": "tension"}},
+                                           "k": {"effect": "linear_stiffness", "k": 2.0}}).double()
+    with pytest.raises(ValueError, match=r"functions of \['tension'\], which some training records lack"):
+        discover(records, trended, split=SPLIT, **FAST)
     with pytest.raises(ValueError, match="unknown effect 'dahll'"):
         build_model("constitutive", {"f": {"effect": "dahll"}})
 

@@ -135,6 +135,10 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         mixed = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else low[p])
                  for p, spec in free.items()}
         starts.append(mixed)
+        neutral = {p: spec.neutral for p, spec in free.items() if spec.neutral is not None}
+        if neutral:  # the fitted model itself: a candidate's refit can only improve on it
+            starts.append({f"{key}.{p}": min(max(float(neutral.get(p, low[p])), bounds[f"{key}.{p}"][0]),
+                                             bounds[f"{key}.{p}"][1]) for p in free})
 
         constants = {name: factor * scales.of_unit(unit)
                      for name, (unit, factor) in getattr(cls, "discovery_constants", {}).items()}

@@ -175,6 +175,14 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     train_set, val_set, test_set = records.split(held_out=split.get("held_out"), val=split.get("val"))
     train, val, test = _as_records(train_set), _as_records(val_set), _as_records(test_set)
     sim = {"backend": backend, "method": method, "substeps": int(substeps)}
+    if not train:
+        raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
+    used = sorted({fn.condition for e in nominal.effects.values() for fn in e.params.values()
+                   if getattr(fn, "condition", None)})
+    lacking = [c for c in used if c not in _numeric_conditions(train)]
+    if lacking:
+        raise ValueError(f"the nominal's parameters are functions of {lacking}, which some training records lack "
+                         f"as a number; give it to every record or make those parameters constant")
     n_train = sum(len(r) for r in train)
     for r in train:
         r.require_samples(16, "discovery (identifying a candidate effect)")
