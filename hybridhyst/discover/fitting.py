@@ -14,7 +14,7 @@ from ..identify.identify import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace
 
-__all__ = ["Fit", "fit_candidate", "polish", "search_points"]
+__all__ = ["Fit", "fit_candidate", "polish", "search_points", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
 RESOLVED = 0.02  # relative change of the SSE under halved steps below which a fit counts as resolved
@@ -42,6 +42,16 @@ def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
     return torch.where(torch.isfinite(c), c * problem.n_samples, torch.full_like(c, math.inf))
 
 
+def sse_at(fit: Fit, train, sim: dict, substeps: int) -> float:
+    """The training SSE of a fitted model simulated with ``substeps`` sub-steps (no refit): a candidate that
+    needed finer steps is compared with the current model at the same resolution."""
+    if substeps == fit.substeps:
+        return fit.sse
+    space = SearchSpace(fit.model)
+    x0 = space.initial().clamp(space.lower, space.upper)
+    return float(_sse(_problem(space, train, sim, substeps), x0[None])[0])
+
+
 def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tensor, lm_steps: int,
                  rounds: int = 4, rtol: float = 1e-3, free: torch.Tensor | None = None):
     """Batched LM in rounds of ``lm_steps`` iterations, continued while the best cost still falls by more
@@ -61,15 +71,21 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
 
 
 def search_points(space: SearchSpace, free: list[str], x0: torch.Tensor, n: int, seed: int = 0) -> torch.Tensor:
-    """``n`` scrambled-Sobol points ``(n, D)`` over the box of the ``free`` coordinates (log scale where the
-    space is), every other coordinate at ``x0``."""
+    """``n`` scrambled-Sobol points ``(n, D)`` over the box of the ``free`` coordinates, every other coordinate
+    at ``x0``. Log scale where the space is, and for amplitudes bounded below by 0 (a gap, a friction excess)
+    over the five decades below their upper bound: their size is unknown by orders of magnitude."""
     idx = [space.names.index(f) for f in free]
     X = x0.expand(n, -1).clone()
     if not idx:
         return X
     U = space.to_unit(x0[None]).expand(n, -1).clone()
-    U[:, idx] = torch.quasirandom.SobolEngine(len(idx), scramble=True, seed=seed).draw(n).to(torch.float64)
+    S = torch.quasirandom.SobolEngine(len(idx), scramble=True, seed=seed).draw(n).to(torch.float64)
+    U[:, idx] = S
     X[:, idx] = space.from_unit(U)[:, idx]
+    for j, i in enumerate(idx):
+        lo, hi = float(space.lower[i]), float(space.upper[i])
+        if lo == 0.0 and hi > 0 and not bool(space.log[i]):
+            X[:, i] = hi * torch.pow(10.0, -5.0 * (1 - S[:, j]))
     return X
 
 

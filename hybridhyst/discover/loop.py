@@ -27,7 +27,7 @@ from ..identify import identify
 from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
-from .fitting import Fit, fit_candidate, polish
+from .fitting import Fit, fit_candidate, polish, sse_at
 from .trends import MIN_LEVELS, fit_trends
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
@@ -251,7 +251,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                 c_fit = None
             ranking.append((cand, c_fit))
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
-        evidence = {c.name: (1 - f.sse / fit.sse if f is not None and fit.sse > 0 else None) for c, f in ranking}
+        ref = {s_: sse_at(fit, train, sim, s_) for s_ in {f.substeps for _, f in ranking if f is not None}}
+        evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
+                    for c, f in ranking}
         finals = [(cand, f, _rmse_of(f.model, scored, _at(sim, f)))
                   for cand, f in ranking[: int(top)] if f is not None]
         if not finals:
@@ -262,7 +264,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         close = [f for f in finals if f[2] <= (1 + margin) * best_val]
         cand, c_fit, f_val = min(close, key=lambda f: information_criterion(f[1].sse, n_train, f[1].k, criterion))
         f_ic = information_criterion(c_fit.sse, n_train, c_fit.k, criterion)
-        accepted = f_val < (1 - margin) * val_rmse and f_ic < ic
+        ic_ref = information_criterion(ref[c_fit.substeps], n_train, fit.k, criterion)  # at the same resolution
+        accepted = f_val < (1 - margin) * val_rmse and f_ic < min(ic, ic_ref)
         entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,
                  "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
                               "val_rmse_before": val_rmse, "val_rmse_after": f_val,

@@ -50,5 +50,7 @@ class Backlash(Effect):
 
     def transform(self, p, kin: Kinematics, state):
         gap = state[:, 0]
-        closed = step(gap * sign(kin.v) - p["r"])
+        # closed in the direction of motion; always closed at r = 0 (the identity, even where the input
+        # reverses inside a step)
+        closed = 1 - (1 - step(gap * sign(kin.v) - p["r"])) * (1 - step(-p["r"]))
         return kin.moved(x=kin.x - clamp(gap, -p["r"], p["r"]), v=kin.v * closed)
