@@ -86,7 +86,7 @@ def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path):
 
 
 def test_fit_rejects_a_held_out_value_no_record_has(tmp_path):
-    cfg = _compose("fit", tmp_path, ["split.held_out={amplitude_in: [0.75]}"])
+    cfg = _compose("fit", tmp_path, ["split.held_out=[{amplitude_in: [0.75]}]"])
     with pytest.raises(ValueError, match="matches no record"):
         fit.run(cfg)
 
@@ -129,3 +129,102 @@ def test_cli_missing_data_file_is_one_line_naming_the_file(tmp_path):
     assert proc.returncode == 2, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and "nope.csv" in lines[0], proc.stderr
+
+
+# -- one split convention; dataset defaults travel with the data config ------------------------------------------
+def test_data_group_brings_its_defaults_and_table_brings_neutral_ones(tmp_path):
+    brfd = _compose("discover", tmp_path, [])
+    assert brfd.split.select == {"tension_lb": 36} and brfd.split.held_out == [{"kind": "earthquake"}]
+    assert brfd.thinning.downsample == 16 and list(brfd.discover.conditions) == ["amplitude_in"]
+    table = _compose("discover", tmp_path, ["data=table"])
+    assert table.split.select is None and table.split.val is None and table.title is None
+    assert OmegaConf.is_missing(table.split, "held_out") and table.thinning.downsample == 1
+    assert table.discover.conditions is True and table.discover.label_conditions is None
+    bw = _compose("discover", tmp_path, ["experiment=boucwen_discovery"])  # experiments still override
+    assert bw.split.held_out == [{"split": "test"}] and bw.split.select is None and bw.discover.conditions is False
+    for app in ("fit", "train"):
+        cfg = _compose(app, tmp_path, [])
+        assert cfg.split.select == {"kind": "characterisation", "tension_lb": 36}
+        assert cfg.split.held_out == [{"amplitude_in": [1.0]}]
+        neutral = _compose(app, tmp_path, ["data=table"])
+        assert neutral.split.select is None and OmegaConf.is_missing(neutral.split, "held_out")
+    assert _compose("identify", tmp_path, []).split.select == {"mixture": "1:3", "pressure_mpa": 0.05}
+    assert _compose("identify", tmp_path, ["data=table"]).split.select is None
+
+
+def test_held_out_is_a_list_of_queries_and_a_single_mapping_is_one(tmp_path):
+    listed = _compose("fit", tmp_path, ["split.held_out=[{frequency_hz: [0.5]}]"])
+    single = _compose("fit", tmp_path, ["~split.held_out", "+split.held_out={frequency_hz: [0.5]}"])
+    assert fit.load_split(listed)[1].names == fit.load_split(single)[1].names == [
+        "char_0.5Hz_36lb_0.5in", "char_0.5Hz_36lb_1.5in", "char_0.5Hz_36lb_1in"]
+    assert fit._reference(_compose("fit", tmp_path, [])) is not None  # the reference protocol, list form
+    with pytest.raises(ValueError, match="no held-out records"):
+        fit.load_split(_compose("fit", tmp_path, ["split.held_out=null"]))
+    with pytest.raises(ValueError, match="names no condition"):
+        fit.load_split(_compose("fit", tmp_path, ["split.held_out=[{}]"]))
+
+
+# -- a deleted or misspelt config key is one line naming it, in every app -----------------------------------------
+def _one_line_error(run, cfg, capsys) -> str:
+    with pytest.raises(SystemExit) as exc:
+        guarded(run, cfg)
+    assert exc.value.code == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    return lines[0]
+
+
+# (app, deleted key, [overrides deleting a key and adding a misspelt one], [names in that message])
+KEY_CASES = [
+    ("fit", "split.select", ["~split.held_out", "+split.held_ot=[{amplitude_in: [1.0]}]"],
+     ["split.held_out", "split.held_ot"]),
+    ("identify", "split.select", ["~noise_sd", "+noise_sdd=0.1"], ["noise_sd", "noise_sdd"]),
+    ("train", "split.val", ["~datamodule.window", "+datamodule.windw=64"], ["datamodule.windw", "datamodule.window"]),
+    ("discover", "thinning.downsample", ["~discover.margin", "+discover.margn=0.05"],
+     ["discover.margin", "discover.margn"]),
+    ("simulate", "input.cycles", ["~solver.method", "+solver.methd=rk4"], ["solver.method", "solver.methd"]),
+    ("study", "reduced", ["~reduced", "+reducd=true"], ["reduced", "reducd"]),
+]
+
+
+@pytest.mark.parametrize("app,deleted,misspelt,names", KEY_CASES, ids=[c[0] for c in KEY_CASES])
+def test_a_deleted_or_misspelt_key_is_one_line_naming_it(app, deleted, misspelt, names, tmp_path, capsys):
+    import importlib
+
+    from hybridhyst.cli.study import compose_study
+
+    run = importlib.import_module(f"hybridhyst.cli.{app}").run
+    extra = ["logger=none", "trainer.enable_progress_bar=false"] if app == "train" else ["progress=false"]
+
+    def composed(overrides):
+        if app == "study":
+            return compose_study("seed004_symmetric_damper", f"run_dir={tmp_path}", "progress=false", *overrides)
+        return _compose(app, tmp_path, [*extra, *overrides])
+
+    message = _one_line_error(run, composed([f"~{deleted}"]), capsys)
+    assert f"config key {deleted} is missing" in message and f"'+{deleted}=" in message, message
+    message = _one_line_error(run, composed(misspelt), capsys)
+    assert all(name in message for name in names), message
+
+
+def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_path, capsys):
+    from hybridhyst.cli import discover, identify
+
+    message = _one_line_error(discover.run, _compose("discover", tmp_path, ["data=table"]), capsys)
+    assert "data.path" in message and "split.held_out" in message and "need a value" in message
+    message = _one_line_error(discover.run, _compose("discover", tmp_path, ["title=${nope}"]), capsys)
+    assert message.startswith("error: config key title: its interpolation does not resolve")
+    message = _one_line_error(identify.run, _compose("identify", tmp_path, ['+select={mixture: "1:3"}']), capsys)
+    assert "split.select" in message
+
+
+@pytest.mark.parametrize("app,override,expected", [
+    ("fit", "split.selct.tension_lb=30", "did you mean split.select?"),
+    ("fit", "split.held_out={amplitude_in: [0.5]}", "that key holds a list"),
+    ("discover", "data=brfdd", "options of 'data': boucwen, brfd, table, vpptd"),
+])
+def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expected, tmp_path):
+    proc = _cli(f"hybridhyst.cli.{app}", tmp_path, override)
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert proc.returncode == 2 and len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: ") and expected in lines[0], lines[0]

@@ -1,61 +1,141 @@
 """``hybridhyst-discover``: the closed loop on measured data (``hybridhyst.discover``).
 
-Default (``conf/discover.yaml``): the measured BRFD friction damper at 36 lb band tension from a Coulomb +
-viscous + Dahl nominal; train on the 0.5 and 1.5 in characterisation tests, validate on the 1 in tests,
-test on the earthquake records. Writes ``discovery.json``, ``report.md``, ``residuals.png``, ``loops.png``
-and ``config.yaml`` into the run directory (``hydra.run.dir=...``).
+Default (``conf/discover.yaml`` with ``conf/data/discover/brfd.yaml``): the measured BRFD friction damper at
+36 lb band tension from a Coulomb + viscous + Dahl nominal; train on the 0.5 and 1.5 in characterisation tests,
+validate on the 1 in tests, test on the earthquake records. Writes ``discovery.json``, ``report.md``,
+``residuals.png``, ``loops.png`` and ``config.yaml`` into the run directory (``hydra.run.dir=...``) and ends
+with a few lines on the terminal: the effects named, the validation and test RMSE before → after.
 """
 
 from __future__ import annotations
+
+import math
+from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig
 
 from ..data.datamodule import decimation_factors
 from ..data.records import RecordSet
+from ..data.splits import Split, check_conditions
 from ..discover import discover
 from ..discover.report import write_discovery
-from .common import CONF_DIR, check_app, guarded, instantiate, prepare_run_dir, to_plain, torch_settings
+from .common import (
+    CONF_DIR,
+    check_app,
+    check_kwargs,
+    check_model_conditions,
+    guarded,
+    hydra_entry,
+    instantiate,
+    load_records,
+    prepare_run_dir,
+    split_options,
+    to_plain,
+    torch_settings,
+)
 
-__all__ = ["load_records", "main", "run"]
+__all__ = ["check_trend_conditions", "load_split", "main", "run", "summary_lines"]
 
 
-def load_records(cfg: DictConfig) -> RecordSet:
-    """The selected records, thinned (``cfg.thinning``)."""
-    records = instantiate(cfg.data, _convert_="all")
-    select = to_plain(cfg.get("select")) or {}
-    records = records.select(**select)
-    if len(records) == 0:
-        raise ValueError(f"data selection {select} leaves no records")
+def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
+    """The records of ``split.select``, thinned (``cfg.thinning``), and their split (``split.held_out`` ->
+    test, ``split.val`` -> validation, the rest -> training)."""
+    split = split_options(cfg)
     th = cfg.thinning
-    factors = decimation_factors(records, th.samples_per_cycle, th.downsample, th.frequency_condition)
-    return RecordSet([r.slice(step=factors[r.name]) if factors[r.name] > 1 else r for r in records], records.name)
+    samples_per_cycle, downsample, frequency = th.samples_per_cycle, th.downsample, th.frequency_condition
+    records = load_records(cfg, split["select"])
+    factors = decimation_factors(records, samples_per_cycle, downsample, frequency)
+    records = RecordSet([r.slice(step=factors[r.name]) if factors[r.name] > 1 else r for r in records], records.name)
+    return records, records.split(held_out=split["held_out"], val=split["val"])
+
+
+def check_trend_conditions(parts: Split, conditions) -> None:
+    """The conditions ``discover.conditions`` names for trends (a parameter as a linear function of them) must
+    be numbers in every record, training, validation and test alike (a trend is evaluated on each), and take
+    at least two values on the training records (else its slope is not determined). With ``true`` (every
+    numeric condition of the training records), such a condition that a validation or test record lacks is an
+    error too. A ``ValueError`` names the condition and the records."""
+    if conditions is True:
+        train = list(parts.train)
+        names = [k for k in dict.fromkeys(k for r in train for k in r.conditions)
+                 if all(isinstance(r.conditions.get(k), (int, float)) and not isinstance(r.conditions.get(k), bool)
+                        and math.isfinite(float(r.conditions[k])) for r in train)]
+        check_conditions(parts, names, "discover.conditions=true (every numeric condition of the training "
+                         "records; name the ones to use as a list, or false for none)")
+    elif conditions:
+        if isinstance(conditions, str) or not isinstance(conditions, (list, tuple)):
+            raise ValueError(f"discover.conditions must be true, false or a list of condition names, got "
+                             f"{conditions!r}")
+        check_conditions(parts, list(conditions), "discover.conditions", min_train_values=2)
+
+
+def summary_lines(report: dict, unit: str, run_dir: Path | str) -> list[str]:
+    """A few lines for the terminal: the effects named (added, removed, the best one not accepted), the
+    validation, test and training RMSE before -> after in the response's unit, and where the report is."""
+    def fmt(v):
+        return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
+
+    def name(step):
+        trends = step.get("trends")
+        if isinstance(trends, dict) and trends:
+            return f"{step['effect']} ({', '.join(f'{k} {v}' for k, v in trends.items())})"
+        return str(step["effect"])
+
+    u = f" {unit}" if unit else ""
+    added = [name(s) for s in report.get("steps") or [] if s.get("accepted", True)]
+    removed = [str(s["effect"]) for s in report.get("removed") or []]
+    rejected = [name(s) for s in report.get("rejected") or []]
+    line = "discovery: added " + ("; ".join(added) if added else "nothing")
+    line += f"; removed {', '.join(removed)}" if removed else ""
+    line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""
+    lines = [line]
+    b, a = report["before"], report["after"]
+    for key, what in (("val_rmse", "validation"), ("test_rmse", "test"), ("train_rmse", "training")):
+        if b.get(key) is not None or a.get(key) is not None:
+            lines.append(f"  {what} RMSE {fmt(b.get(key))} -> {fmt(a.get(key))}{u}")
+    lines.append(f"  report: {Path(run_dir) / 'report.md'}")
+    return lines
 
 
 def run(cfg: DictConfig) -> dict:
-    """Discover, write the run directory, return ``discovery.json``'s content."""
+    """Discover, write the run directory, print a short summary, return ``discovery.json``'s content."""
     check_app(cfg, "discover")
     run_dir = prepare_run_dir(cfg)
     d = cfg.discover
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
-        records = load_records(cfg)
+        records, parts = load_split(cfg)
+        conditions = to_plain(d.conditions)
+        check_trend_conditions(parts, conditions)
         model = instantiate(cfg.model, _convert_="all").double()
-        result = discover(records, model, candidates=to_plain(d.candidates), split=to_plain(cfg.split),
-                          conditions=to_plain(d.conditions), label_conditions=to_plain(d.get("label_conditions")),
-                          margin=float(d.margin), criterion=d.criterion,
-                          max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps),
-                          noise_sd=d.noise_sd, fit_nominal=bool(d.fit_nominal),
-                          identify_options={**to_plain(d.identify), "seed": int(cfg.seed)}, backend=d.backend,
-                          method=d.method, substeps=int(d.substeps), progress=bool(cfg.progress))
+        check_model_conditions(model, parts)
+        split = split_options(cfg, ("held_out", "val"))
+        from ..identify import identify
+
+        first_fit = check_kwargs({**to_plain(d.identify), "seed": int(cfg.seed)}, identify, "discover.identify",
+                                 reserved=("model", "records", "fisher", "progress", "backend", "ode_method",
+                                           "substeps"))
+        options = dict(candidates=to_plain(d.candidates), split=split, conditions=conditions,
+                       label_conditions=to_plain(d.label_conditions), margin=float(d.margin), criterion=d.criterion,
+                       max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,
+                       fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
+                       backend=d.backend, method=d.method, substeps=int(d.substeps), progress=bool(cfg.progress))
+        result = discover(records, model, **options)
     unit = records.records[0].units.get("y", "")
-    write_discovery(result, run_dir, title=cfg.title, unit=unit)
+    title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"
+    write_discovery(result, run_dir, title=title, unit=unit)
+    print("\n".join(summary_lines(result.report, unit, run_dir)), flush=True)
     return result.report
 
 
 @hydra.main(config_path=CONF_DIR, config_name="discover", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-discover`` (Hydra overrides on the command line)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-discover`` (Hydra overrides on the command line)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -24,10 +24,14 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
+    check_model_conditions,
     guarded,
+    hydra_entry,
     instantiate,
+    load_records,
     parameter_table,
     prepare_run_dir,
+    split_options,
     to_plain,
     torch_settings,
     write_json,
@@ -38,20 +42,20 @@ __all__ = ["decimation_factors", "load_split", "main", "run"]
 
 
 
-def load_split(data_cfg: DictConfig, split_cfg: DictConfig):
-    """Load the records (``data_cfg`` is instantiated), select them and split off the held-out conditions.
+def load_split(cfg: DictConfig):
+    """Load the records of ``cfg.data``, keep ``split.select`` and split off ``split.held_out``.
 
     Returns
     -------
-    (train, held_out) record sets. A ``ValueError`` names a condition or value that matches nothing.
+    (train, held_out) record sets. A ``ValueError`` names a condition or value that matches nothing, or
+    says that nothing is held out.
     """
-    records = instantiate(data_cfg, _convert_="all")
-    select = to_plain(split_cfg.get("select")) or {}
-    records = records.select(**select)
-    if len(records) == 0:
-        raise ValueError(f"data selection {select} leaves no records")
-    held_out = to_plain(split_cfg.get("held_out"))
-    train, _, test = records.split(held_out=held_out)
+    split = split_options(cfg, ("select", "held_out"))
+    if not split["held_out"]:
+        raise ValueError("no held-out records: set split.held_out to the conditions to score on, e.g. "
+                         "'split.held_out=[{amplitude_in: [1.0]}]'")
+    records = load_records(cfg, split["select"])
+    train, _, test = records.split(held_out=split["held_out"])
     return train, test
 
 
@@ -78,12 +82,15 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
 
 
 def _conditions_table(records, keys) -> dict[str, dict]:
+    """{record: {condition: value}} for ``keys`` (None: every condition of the records, in order of appearance)."""
+    if keys is None:
+        keys = list(dict.fromkeys(k for r in records for k in r.conditions))
     return {r.name: {k: r.conditions.get(k) for k in keys} for r in records}
 
 
 def _fit(model, train, cfg) -> tuple:
     fit = cfg.fit
-    factors = decimation_factors(train, fit.samples_per_cycle, fit.downsample, cfg.split.frequency_condition)
+    factors = decimation_factors(train, fit.samples_per_cycle, fit.downsample, fit.frequency_condition)
     result = fit_gradient(
         model, list(train), steps=int(fit.steps), lr=float(fit.lr), downsample=factors, loss=fit.loss,
         lbfgs_steps=int(fit.lbfgs_steps), progress=bool(cfg.progress), method=fit.method,
@@ -94,12 +101,16 @@ def _fit(model, train, cfg) -> tuple:
 
 def _reference(cfg) -> dict | None:
     """The reference numbers of ``cfg.reference`` when the run uses the protocol they were measured with."""
+    from ..data.splits import as_queries
+
     ref = cfg.get("reference")
     if not ref:
         return None
     protocol = to_plain(ref.protocol)
-    used = {"data": to_plain(cfg.data), "select": to_plain(cfg.split.select),
-            "held_out": to_plain(cfg.split.held_out)}
+    split = split_options(cfg, ("select", "held_out"))
+    used = {"data": to_plain(cfg.data), "select": split["select"], "held_out": split["held_out"]}
+    if "held_out" in protocol:
+        protocol["held_out"] = as_queries(protocol["held_out"])
     if any(used[k] != v for k, v in protocol.items()):
         return None
     return {"source": ref.source, "held_out_rmse": to_plain(ref.held_out_rmse)}
@@ -111,7 +122,7 @@ def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:
     solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps, "backend": cfg.fit.backend})
     scores, frames, factors = {}, {}, {}
     for part, records in (("train", train), ("held_out", held_out)):
-        f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.split.frequency_condition)
+        f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.fit.frequency_condition)
         scores[part], part_frames, _ = _evaluate(model, list(records), f, solver)
         frames.update({k: v.assign(split=part) for k, v in part_frames.items()})
         factors.update(f)
@@ -126,7 +137,7 @@ def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_fact
         "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
         "per_record": {**scores["train"]["per_record"], **scores["held_out"]["per_record"]},
         "split": {"train": train.names, "held_out": held_out.names},
-        "conditions": _conditions_table([*train, *held_out], list(cfg.report.condition_columns)),
+        "conditions": _conditions_table([*train, *held_out], to_plain(cfg.report.condition_columns)),
         "units": {"x": train[0].units.get("x", ""), "y": train[0].units.get("y", "")},
         "fit": fit_info,
         "evaluate": {"samples_per_cycle": cfg.evaluate.samples_per_cycle, "decimation": eval_factors},
@@ -141,10 +152,9 @@ def run(cfg: DictConfig) -> dict:
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
-        train, held_out = load_split(cfg.data, cfg.split)
-        if len(held_out) == 0:
-            raise ValueError("no held-out records: set split.held_out to the conditions to score on")
+        train, held_out = load_split(cfg)
         model = instantiate(cfg.model, _convert_="all")
+        check_model_conditions(model, [*train, *held_out])
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
@@ -162,9 +172,13 @@ def run(cfg: DictConfig) -> dict:
 
 
 @hydra.main(config_path=CONF_DIR, config_name="fit", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-fit`` (Hydra overrides on the command line)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-fit`` (Hydra overrides on the command line)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,19 @@ from omegaconf import DictConfig, OmegaConf
 from ..data.records import Record, RecordSet
 from ..identify import SearchSpace, identify
 from ..simulate import simulate
-from .common import CONF_DIR, atomic_write, guarded, instantiate, prepare_run_dir, torch_settings, write_json
+from .common import (
+    CONF_DIR,
+    atomic_write,
+    check_model_conditions,
+    guarded,
+    hydra_entry,
+    instantiate,
+    load_records,
+    prepare_run_dir,
+    split_options,
+    torch_settings,
+    write_json,
+)
 
 __all__ = ["add_noise", "main", "run"]
 
@@ -45,22 +57,20 @@ def add_noise(records: RecordSet, noise_sd: float, seed: int) -> RecordSet:
 
 
 def _load(cfg) -> RecordSet:
-    records = instantiate(cfg.data, _convert_="all")
-    select = _container(cfg.get("select")) or {}
-    records = records.select(**select)
-    if len(records) == 0:
-        raise ValueError(f"data selection {select} leaves no records")
-    return add_noise(records, float(cfg.get("noise_sd") or 0.0), int(cfg.get("seed") or 0))
+    """The records of ``cfg.data`` matching ``split.select``, with ``noise_sd`` noise added."""
+    noise_sd, seed = float(cfg.noise_sd or 0.0), int(cfg.seed or 0)
+    records = load_records(cfg, split_options(cfg, ("select",))["select"])
+    return add_noise(records, noise_sd, seed)
 
 
 def _identify(model, records, cfg):
-    opts = _container(cfg.identify)
-    noise = float(cfg.get("noise_sd") or 0.0)
-    return identify(model, records, method=opts["method"], pop=opts.get("pop"), generations=int(opts["generations"]),
+    opts = cfg.identify  # item access: a deleted or misspelt key is a config error naming it
+    noise = float(cfg.noise_sd or 0.0)
+    return identify(model, records, method=opts["method"], pop=opts["pop"], generations=int(opts["generations"]),
                     refine=opts["refine"], restarts=int(opts["restarts"]), lm_steps=int(opts["lm_steps"]),
                     adam_steps=int(opts["adam_steps"]), lbfgs_steps=int(opts["lbfgs_steps"]), lr=float(opts["lr"]),
-                    bounds={k: tuple(v) for k, v in (opts.get("bounds") or {}).items()},
-                    box_factor=float(opts["box_factor"]), noise_sd=noise or None, target=opts.get("target"),
+                    bounds={k: tuple(v) for k, v in (_container(opts["bounds"]) or {}).items()},
+                    box_factor=float(opts["box_factor"]), noise_sd=noise or None, target=opts["target"],
                     seed=int(cfg.seed), fisher=bool(opts["fisher"]), jacobian=opts["jacobian"],
                     progress=bool(cfg.progress), ode_method=opts["ode_method"], substeps=int(opts["substeps"]),
                     search_decimate=int(opts.get("search_decimate", 1)))
@@ -151,6 +161,7 @@ def run(cfg: DictConfig) -> dict:
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         records = _load(cfg)
         model = instantiate(cfg.model, _convert_="all")
+        check_model_conditions(model, records)
         result = _identify(model, records, cfg)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
@@ -166,9 +177,13 @@ def run(cfg: DictConfig) -> dict:
 
 
 @hydra.main(config_path=CONF_DIR, config_name="identify", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-identify`` (Hydra overrides on the command line)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-identify`` (Hydra overrides on the command line)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ from .common import (
     atomic_write,
     check_app,
     guarded,
+    hydra_entry,
     instantiate,
     prepare_run_dir,
     to_plain,
@@ -77,9 +78,10 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     """Simulate the records of ``cfg.data`` (decimated by ``input.downsample``); RMSE against y."""
     from ..analysis import rmse
 
+    select = to_plain(cfg.input.select)  # a mapping {condition: value or [values]}, as split.select elsewhere
+    downsample = int(cfg.input.downsample)
     records = instantiate(cfg.data, _convert_="all")
-    select = to_plain(cfg.input.get("select")) or {}
-    records = [decimate(r, int(cfg.input.downsample)) for r in records.select(**select)]
+    records = [decimate(r, downsample) for r in (records.select(select) if select else records)]
     if not records:
         raise ValueError(f"input.select {select} leaves no records to simulate")
     solver = cfg.solver
@@ -117,9 +119,13 @@ def run(cfg: DictConfig) -> dict:
 
 
 @hydra.main(config_path=CONF_DIR, config_name="simulate", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-simulate`` (Hydra overrides on the command line)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-simulate`` (Hydra overrides on the command line)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ import hydra
 from omegaconf import DictConfig
 
 from ..studies import StudyOutput, get_study
-from .common import CONF_DIR, check_app, guarded, prepare_run_dir, to_plain, torch_settings
+from .common import CONF_DIR, check_app, guarded, hydra_entry, prepare_run_dir, to_plain, torch_settings
 
 __all__ = ["compose_study", "main", "run"]
 
@@ -52,9 +52,13 @@ def run(cfg: DictConfig) -> dict:
 
 
 @hydra.main(config_path=CONF_DIR, config_name="study", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-study`` (Hydra overrides on the command line)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-study`` (Hydra overrides on the command line)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

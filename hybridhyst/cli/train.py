@@ -31,9 +31,14 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
+    check_kwargs,
+    check_model_conditions,
     guarded,
+    hydra_entry,
     instantiate,
+    load_records,
     prepare_run_dir,
+    split_options,
     to_plain,
     torch_settings,
     write_json,
@@ -45,15 +50,17 @@ DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": 
 
 
 def build_datamodule(cfg: DictConfig) -> RecordDataModule:
-    """Records from ``cfg.data`` (selected by ``split.select``) in a ``RecordDataModule``."""
-    records = instantiate(cfg.data, _convert_="all")
-    select = to_plain(cfg.split.get("select")) or {}
-    records = records.select(**select)
-    if len(records) == 0:
-        raise ValueError(f"data selection {select} leaves no records")
-    d = to_plain(cfg.datamodule)
-    return RecordDataModule(records, held_out=to_plain(cfg.split.get("held_out")), val=to_plain(cfg.split.get("val")),
-                            seed=int(cfg.seed), **d)
+    """Records from ``cfg.data`` (``split.select``) in a ``RecordDataModule`` (``split.held_out`` -> test,
+    ``split.val`` -> validation); the conditions fed to the networks must be numbers in every record."""
+    from ..data.splits import check_conditions
+
+    split = split_options(cfg)
+    d = check_kwargs(to_plain(cfg.datamodule), RecordDataModule.__init__, "datamodule",
+                     reserved=("records", "held_out", "val", "seed"))
+    records = load_records(cfg, split["select"])
+    check_conditions(records.split(held_out=split["held_out"], val=split["val"]), d.get("conditions") or [],
+                     "datamodule.conditions")
+    return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed), **d)
 
 
 def build_module(cfg: DictConfig, dm: RecordDataModule):
@@ -69,6 +76,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule):
     sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
     if kind in ("physics", "hybrid", "std_pinn"):
         nominal = instantiate(cfg.model, _convert_="all").double()
+        check_model_conditions(nominal, dm.split, "model")
         if cfg.get("nominal_state"):
             nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
     if kind == "physics":
@@ -198,9 +206,13 @@ def _log_hparams(trainer, cfg, result):
 
 
 @hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")
-def main(cfg: DictConfig) -> None:
-    """Console entry point ``hybridhyst-train`` (Hydra overrides on the command line; ``-m`` sweeps)."""
+def _hydra_main(cfg: DictConfig) -> None:
     guarded(run, cfg)
+
+
+def main() -> None:
+    """Console entry point ``hybridhyst-train`` (Hydra overrides on the command line; ``-m`` sweeps)."""
+    hydra_entry(_hydra_main)
 
 
 if __name__ == "__main__":

@@ -232,9 +232,10 @@ class RecordSet:
 
         Parameters
         ----------
-        held_out : ``{condition: [values]}``, a list of such (a record matching any is held out) or a
-            callable ``(record) -> bool``: the test records (the conditions the model must generalise to),
-            e.g. ``{"amplitude_in": [1.0]}``.
+        held_out : a list of ``{condition: [values]}`` queries (a record matching any is held out), a single
+            such mapping (the one-element list), a callable ``(record) -> bool``, or ``None`` / ``[]`` for
+            none: the test records (the conditions the model must generalise to), e.g.
+            ``[{"amplitude_in": [1.0]}]``.
         val : the same kind of query for validation records, chosen among those not held out.
 
         Returns
@@ -244,10 +245,12 @@ class RecordSet:
         Raises
         ------
         ValueError
-            If a held-out or validation value matches no record, or no training record is left.
+            If a query is malformed or empty (``{}`` would match every record), a held-out or validation value
+            matches no record, or no training record is left.
         """
-        from .splits import Split, condition_mask
+        from .splits import Split, as_queries, condition_mask
 
+        held_out, val = as_queries(held_out, "held-out"), as_queries(val, "validation")
         test = condition_mask(self.records, held_out, "held-out", self.name)
         valid = condition_mask(self.records, val, "validation", self.name) & ~test
         train = ~(test | valid)

@@ -93,10 +93,11 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
                   keep: int = 3) -> Fit | None:
     """Fit the model augmented by ``candidate`` with every coordinate free; None if nothing simulates.
 
-    1. *Global search over the new coordinates*: the candidate's heuristic starts and ``search`` Sobol points
-       over the box of its new coordinates (a gap, a Stribeck speed, a drift scale make non-convex costs
-       that a local fit from a wrong start misses), the fitted coordinates held; one batched evaluation.
-    2. *Re-balance*: from the ``keep`` best, ``lm_steps // 2`` LM iterations move only the fitted
+    1. *Global search over the new coordinates*: ``search`` Sobol points over the box of its new coordinates
+       (a gap, a Stribeck speed, a drift scale make non-convex costs that a local fit from a wrong start
+       misses), the fitted coordinates held, in one batched evaluation; the ``keep`` best join the
+       candidate's heuristic starts (and the fitted model itself, for effects with neutral values).
+    2. *Re-balance*: from every start, ``lm_steps // 2`` LM iterations move only the fitted
        coordinates (a new element's stiffness is given up by the old spring), so the joint fit starts near
        the fitted response instead of in another basin.
     3. *Joint LM* from those rows, continued until converged; then the step-doubling check (``resolve``).
@@ -108,14 +109,11 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     current = dict(zip(space.names, x0.tolist()))
     starts = torch.tensor([[s.get(n, current[n]) for n in space.names] for s in candidate.starts],
                           dtype=torch.float64).clamp(space.lower, space.upper)
-    if search:
-        starts = torch.cat([starts, search_points(space, candidate.free, x0, search)])
-    costs = _sse(problem, starts)
-    order = torch.argsort(costs)[:keep]
-    order = order[torch.isfinite(costs[order])]
-    if len(order) == 0:
-        return None
-    starts = starts[order]
+    if search:  # the heuristic starts stay; the search adds its ``keep`` best points
+        points = search_points(space, candidate.free, x0, search)
+        costs = _sse(problem, points)
+        order = torch.argsort(costs)[:keep]
+        starts = torch.cat([starts, points[order[torch.isfinite(costs[order])]]])
     old = torch.tensor([n not in candidate.free for n in space.names])
     if bool(old.any()):
         starts = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,

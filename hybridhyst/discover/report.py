@@ -79,18 +79,26 @@ def loops_figure(result: DiscoveryResult, path: Path, limit: int = 6) -> Path:
     return path
 
 
+def _ic(ev: dict, when: str):
+    return next((v for k, v in ev.items() if k.endswith(f"_{when}") and not k.startswith("val")), None)
+
+
 def _paragraph(step: dict, before_rmse: float, unit: str) -> str:
-    new = ", ".join(f"{k} = {_fmt(v)}" + (f" {step['parameters'].get(k, {}).get('unit', '')}".rstrip())
-                    for k, v in step["new_coordinates"].items())
     ev = step["evidence"]
     fall = (1 - ev["val_rmse_after"] / ev["val_rmse_before"]) * 100 if ev["val_rmse_before"] else math.nan
+    tail = (f"the validation RMSE from {_fmt(ev['val_rmse_before'])} to {_fmt(ev['val_rmse_after'])} {unit} "
+            f"({_fmt(fall)} %), and the information criterion from {_fmt(_ic(ev, 'before'))} to "
+            f"{_fmt(_ic(ev, 'after'))}.")
+    if step["kind"] == "trend":
+        trends = ", ".join(f"{k}: {v}" for k, v in step.get("trends", {}).items())
+        return (f"**{step['effect']}** (trends): {step['description']}, chosen per parameter from a per-condition "
+                f"fit ({trends}). With them (every parameter refitted) {tail}")
+    new = ", ".join(f"{k} = {_fmt(v)}" + (f" {step['parameters'].get(k, {}).get('unit', '')}".rstrip())
+                    for k, v in step.get("new_coordinates", {}).items())
     kind = "effect" if step["kind"] == "effect" else "parameter function"
     return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. With it "
             f"(every parameter refitted) the training residual's sum of squares fell by "
-            f"{_fmt(100 * (ev['explained_share'] or 0))} %, the validation RMSE from {_fmt(ev['val_rmse_before'])} to "
-            f"{_fmt(ev['val_rmse_after'])} {unit} ({_fmt(fall)} %), and the information criterion from "
-            f"{_fmt(next(v for k, v in ev.items() if k.endswith('_before') and not k.startswith('val')))} to "
-            f"{_fmt(next(v for k, v in ev.items() if k.endswith('_after') and not k.startswith('val')))}.")
+            f"{_fmt(100 * (ev.get('explained_share') or 0))} %, {tail}")
 
 
 def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
@@ -106,14 +114,17 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
     lines += ["", "## Accepted", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
+    for g in r.get("removed", []):
+        lines += [f"**{g['effect']}** removed after step {g['after_step']}: its contribution vanished (refitted "
+                  f"without it, validation RMSE {_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, "
+                  "and the information criterion fell).", ""]
     if r["rejected"]:
         s = r["rejected"][0]
         ev = s["evidence"]
         lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: validation RMSE "
                   f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit} (margin "
                   f"{r['settings']['margin']:.0%} required) and the information criterion "
-                  f"{_fmt(next(v for k, v in ev.items() if k.endswith('_before') and not k.startswith('val')))} → "
-                  f"{_fmt(next(v for k, v in ev.items() if k.endswith('_after') and not k.startswith('val')))}.", ""]
+                  f"{_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
     u = r["unexplained"]
     dep = sorted(u["dependence"].items(), key=lambda kv: -kv[1])[:4]
     lines += ["## What is left", "",
@@ -124,7 +135,10 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
               f"({_fmt(100 * u['where']['share'])} %) sits at loop phase {u['where']['phase_deg']:.0f}°. A small "
               f"network of (x, ẋ, sign ẋ, travel since reversal) recovers "
               f"{_fmt(100 * u['residual_network']['explained_share'])} % of the remaining residual variance on the "
-              f"{u['residual_network']['on']} records.", "",
+              f"{u['residual_network']['on']} records." + (
+                  " **Structure is left that no library effect explains** (flagged: the network recovers more than "
+                  "10 % of it); look at the residual figures for its shape." if u.get("structure_flagged") else ""),
+              "",
               "![Residual against each feature, before and after](residuals.png)", "",
               "![Loops: measured, before and after](loops.png)", ""]
     lines += ["## Parameters after", "", "| parameter | value | unit |", "|---|---|---|"]

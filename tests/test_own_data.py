@@ -1,0 +1,158 @@
+"""README "Your own measurements": the example CSV, and the documented commands composed and run on it
+(reduced: a few optimiser steps; the full discover command is marked slow)."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+
+from hybridhyst.cli.common import CONF_DIR, guarded
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "own_data"
+TRAINING = ["p0.01", "p0.02", "p0.03", "p0.04", "p0.06", "p0.07", "p0.08"]
+
+
+def readme_commands() -> dict[str, list[str]]:
+    """{app: overrides} of the commands in README's "Your own measurements" code block."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text.split("## Your own measurements", 1)[1].split("\n## ", 1)[0]
+    block = section.split("```bash\n", 1)[1].split("```", 1)[0]
+    commands: dict[str, list[str]] = {}
+    for command in block.replace("\\\n", " ").splitlines():
+        words = shlex.split(command, comments=True)
+        if words and words[0].startswith("hybridhyst-"):
+            commands[words[0].removeprefix("hybridhyst-")] = words[1:]
+    return commands
+
+
+COMMANDS = readme_commands()
+
+
+def _compose(app: str, tmp_path: Path, *extra: str):
+    """The README command of ``app`` (the data path made absolute) plus ``extra`` overrides."""
+    overrides = [o.replace("examples/own_data/", f"{EXAMPLE}/") for o in COMMANDS[app]]
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(app, overrides=[f"run_dir={tmp_path}", *overrides, *extra])
+
+
+def test_the_readme_documents_every_app():
+    assert set(COMMANDS) == {"identify", "fit", "discover", "train"}
+    for app, overrides in COMMANDS.items():
+        assert "data=table" in overrides and "model=vpptd_algebraic" in overrides, app
+
+
+def test_the_example_is_what_make_example_writes(tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_example", EXAMPLE / "make_example.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    written = module.main(tmp_path / "loops.csv")
+    assert written.read_bytes() == (EXAMPLE / "damper_loops.csv").read_bytes()
+    assert (EXAMPLE / "damper_loops.csv").stat().st_size < 300_000
+
+
+@pytest.mark.parametrize("app", sorted(COMMANDS))
+def test_the_documented_options_load_the_example(app, tmp_path):
+    records = instantiate(_compose(app, tmp_path).data, _convert_="all")
+    assert records.names == [f"p{p / 100:.2f}" for p in range(1, 10)]
+    assert [r.conditions["pressure_mpa"] for r in records] == pytest.approx([p / 100 for p in range(1, 10)])
+    r = records[0]
+    assert len(r) == 501 and r.units == {"t": "s", "x": "deg", "y": "Nm"}
+    assert r.dt == pytest.approx(0.005) and max(r.x) == pytest.approx(10.0, abs=0.01)
+
+
+def test_identify_recovers_the_constants_at_one_pressure(tmp_path):
+    from hybridhyst.cli import identify
+
+    cfg = _compose("identify", tmp_path, "progress=false", "identify.fisher=false", "identify.pop=16",
+                   "identify.generations=10", "identify.restarts=2", "identify.lm_steps=10")
+    summary = identify.run(cfg)
+    assert summary["records"] == ["p0.03"] and summary["rmse"] < 0.25   # noise sd 0.2 Nm
+    truth = {"viscous.c": 6.7, "stiffness.k": 0.65, "cubic.k3": 0.0055, "friction.Fc": 9.5}  # x1.25 at 0.03 MPa
+    for name, value in truth.items():
+        assert summary["coordinates"][name] == pytest.approx(1.25 * value, rel=0.05), name
+
+
+def test_fit_runs_and_holds_out_two_pressures(tmp_path):
+    from hybridhyst.cli import fit
+
+    summary = fit.run(_compose("fit", tmp_path, "progress=false", "fit.steps=3", "fit.lbfgs_steps=2"))
+    assert summary["split"] == {"train": TRAINING, "held_out": ["p0.05", "p0.09"]}
+    assert summary["units"] == {"x": "deg", "y": "Nm"} and 0 < summary["rmse"]["held_out"] < 50
+    assert summary["conditions"]["p0.05"] == {"pressure_mpa": 0.05}
+    assert summary["reference"] is None and (tmp_path / "report.md").exists()
+
+
+def test_discover_runs_and_prints_a_summary(tmp_path, capsys):
+    from hybridhyst.cli import discover
+
+    cfg = _compose("discover", tmp_path, "progress=false", "discover.conditions=false",
+                   "discover.candidates=[stribeck]", "discover.max_steps=1", "discover.identify.pop=8",
+                   "discover.identify.generations=3", "discover.lm_steps=5")
+    report = discover.run(cfg)
+    saved = json.loads((tmp_path / "discovery.json").read_text())
+    assert saved["records"] == {"train": TRAINING, "val": [], "test": ["p0.05", "p0.09"]}
+    assert report["before"]["test_rmse"] > 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[-4].startswith("discovery: added ") and out[-3].startswith("  test RMSE ")
+    assert out[-3].endswith(" Nm") and out[-1] == f"  report: {tmp_path / 'report.md'}"
+    assert (tmp_path / "report.md").read_text().startswith("# Discovery: vpptd_algebraic nominal on damper_loops")
+
+
+def test_train_runs_with_the_pressure_as_a_network_input(tmp_path):
+    from hybridhyst.cli import train
+
+    metrics = train.run(_compose("train", tmp_path, "logger=none", "trainer.max_epochs=2",
+                                 "trainer.enable_progress_bar=false"))
+    assert metrics["status"] == "ok" and set(metrics["test"]["per_condition"]) == {
+        "pressure_mpa=0.05", "pressure_mpa=0.09"}
+
+
+@pytest.mark.parametrize("extra,expected", [
+    (["discover.conditions=[pressure_mpaa]"],
+     "condition 'pressure_mpaa' (did you mean 'pressure_mpa'?) is not a number"),
+    (["split.held_out=[{pressure_mpa: [0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09]}]",
+      "discover.conditions=[pressure_mpa]"], "takes 1 value(s) [0.01] on the training records"),
+    (["split.held_out=[{pressure_mpa: [0.055]}]"], "held-out condition pressure_mpa=0.055 matches no record"),
+    (["data.conditions=[]"], "held-out condition 'pressure_mpa' is not a condition of record set 'damper_loops'"),
+    (["split.held_out=[{pressure_mpa: [0.05, 0.09]}, {pressure_mpa: [0.01, 0.02, 0.03, 0.04, 0.06, 0.07, 0.08]}]"],
+     "leaves no training records"),
+])
+def test_discover_split_and_condition_mistakes_are_one_line(extra, expected, tmp_path, capsys):
+    from hybridhyst.cli import discover
+
+    with pytest.raises(SystemExit) as exc:
+        guarded(discover.run, _compose("discover", tmp_path, "progress=false", *extra))
+    assert exc.value.code == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and expected in lines[0], lines
+
+
+def test_a_parameter_function_of_a_missing_condition_is_one_line(tmp_path, capsys):
+    from hybridhyst.cli import fit
+
+    cfg = _compose("fit", tmp_path, "progress=false",
+                   "model.Ms={kind: linear, slope: 100.0, intercept: 8.5, condition: temperature_c}")
+    with pytest.raises(SystemExit):
+        guarded(fit.run, cfg)
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "condition 'temperature_c'" in err and "model" in err, err
+
+
+@pytest.mark.slow
+def test_the_documented_discover_command_finds_the_pressure_trends(tmp_path):
+    """The README command as it stands (about 20 s here): trends in pressure_mpa take the held-out RMSE to
+    the noise level."""
+    from hybridhyst.cli import discover
+
+    report = discover.run(_compose("discover", tmp_path, "progress=false"))
+    accepted = [s["effect"] for s in report["steps"] if s["accepted"]]
+    assert any("pressure_mpa" in name for name in accepted), accepted
+    assert report["after"]["test_rmse"] < 0.3 < report["before"]["test_rmse"]
