@@ -1,0 +1,323 @@
+"""Physics of the discovery test bed, written independently of the library (numpy and scipy only).
+
+Nothing here imports ``hybridhyst``: the laws are re-derived from their textbook statements and computed
+with numerics the library does not use, so that the discovery loop is judged on data it did not make:
+
+* input signals are analytic (sums of sines with an optional smooth fade-in; x, ẋ, ẍ in closed form)
+  and held at rest before t = 0;
+* sign functions are exact (``np.sign``) or smoothed by arctan, erf or v/√(v² + δ²), never tanh;
+* the play operator is the exact discrete one, y_k = clamp(y_{k-1}, x_k − r, x_k + r), on an input
+  refined many times between samples;
+* Dahl friction is integrated exactly in displacement (it is rate-independent: piecewise exponential);
+* Maxwell elements and other linear lags use an exact exponential integrator (first-order hold);
+* other states (LuGre, Bouc–Wen, oscillators) use ``scipy.integrate.solve_ivp`` (LSODA, Radau or
+  DOP853 with tight tolerances and a step limit of a tenth of the sample interval), or ``heun``, a
+  fixed-step second-order scheme on a grid refined between the samples;
+* noise is white or AR(1) (coloured) with a stated marginal standard deviation.
+
+Units are whatever the caller uses consistently; every law returns arrays of the shape of its inputs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.special import erf
+
+__all__ = [
+    "Sines", "ar1_noise", "bouc_wen_yield", "cogging", "cumulative_travel", "dahl_exact", "fine_grid", "heun",
+    "integrate", "linear_lag", "lugre", "maxwell_force", "multisine", "oscillator", "play", "play_rate", "sgn",
+    "sine", "stribeck_curve", "white_noise",
+]
+
+
+# -- input signals -----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Sines:
+    """x(t) = w(t) · Σ_i A_i sin(2π f_i t + φ_i) for t ≥ 0, held at x(0) (at rest) for t < 0.
+
+    ``fade`` > 0 multiplies the sum by the smoothstep window w = 10 s³ − 15 s⁴ + 6 s⁵, s = t / fade, for
+    t < fade (w = 1 after; w' = w'' = 0 at both ends), so the signal starts from rest with x = ẋ = ẍ = 0.
+    Velocity and acceleration are exact.
+    """
+
+    amplitudes: tuple[float, ...]
+    frequencies: tuple[float, ...]
+    phases: tuple[float, ...] = ()
+    fade: float = 0.0
+
+    def _parts(self, t: np.ndarray, order: int) -> np.ndarray:
+        t = np.asarray(t, float)
+        phases = self.phases or (0.0,) * len(self.amplitudes)
+        out = np.zeros_like(t)
+        for a, f, p in zip(self.amplitudes, self.frequencies, phases):
+            w = 2 * math.pi * f
+            arg = w * np.clip(t, 0.0, None) + p
+            out += a * w**order * (np.sin, np.cos, lambda z: -np.sin(z))[order](arg)
+        return out
+
+    def _window(self, t: np.ndarray):
+        t = np.clip(np.asarray(t, float), 0.0, None)
+        if self.fade <= 0:
+            one = np.ones_like(t)
+            return one, 0 * one, 0 * one
+        s = np.clip(t / self.fade, 0.0, 1.0)
+        w = s**3 * (10 - 15 * s + 6 * s**2)
+        dw = 30 * s**2 * (1 - s) ** 2 / self.fade
+        ddw = 60 * s * (1 - s) * (1 - 2 * s) / self.fade**2
+        return w, dw, ddw
+
+    def x(self, t) -> np.ndarray:
+        w, _, _ = self._window(t)  # the signal is held at x(0) before 0 (_parts and _window clip t at 0)
+        return w * self._parts(t, 0)
+
+    def v(self, t) -> np.ndarray:
+        t = np.asarray(t, float)
+        w, dw, _ = self._window(t)
+        return np.where(t < 0, 0.0, dw * self._parts(t, 0) + w * self._parts(t, 1))
+
+    def a(self, t) -> np.ndarray:
+        t = np.asarray(t, float)
+        w, dw, ddw = self._window(t)
+        return np.where(t < 0, 0.0, ddw * self._parts(t, 0) + 2 * dw * self._parts(t, 1) + w * self._parts(t, 2))
+
+
+def sine(amplitude: float, frequency: float, fade: float = 0.0, phase: float = 0.0) -> Sines:
+    """A sine test x = A sin(2π f t + φ): from x = 0 at full speed (φ = 0), from rest at an end of the
+    stroke (φ = −π/2: x = −A cos 2π f t), or from rest at 0 with ``fade``."""
+    return Sines((float(amplitude),), (float(frequency),), (float(phase),), float(fade))
+
+
+def multisine(rms: float, frequencies: Sequence[float], seed: int, fade: float = 0.0) -> Sines:
+    """Equal-amplitude lines at ``frequencies`` with random (Schroeder-free, seeded) phases, scaled to ``rms``
+    (the rms of the steady part: A = rms · √(2 / n))."""
+    rng = np.random.default_rng(seed)
+    n = len(frequencies)
+    amp = rms * math.sqrt(2.0 / n)
+    return Sines((amp,) * n, tuple(float(f) for f in frequencies), tuple(rng.uniform(0, 2 * math.pi, n)),
+                 float(fade))
+
+
+def fine_grid(t: np.ndarray, refine: int) -> np.ndarray:
+    """Every interval of the sample times ``t`` split into ``refine`` equal steps; t[k] = result[k * refine]."""
+    t = np.asarray(t, float)
+    if refine < 1:
+        raise ValueError(f"refine must be >= 1, got {refine}")
+    frac = np.arange(refine) / refine
+    inner = (t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel()
+    return np.r_[inner, t[-1]]
+
+
+# -- sign functions and static laws ------------------------------------------------------------------------
+
+
+def sgn(v, kind: str = "exact", width: float = 0.0) -> np.ndarray:
+    """The sign of v: "exact" (np.sign, with |v| below 1e-9 of its largest value counted as 0, so that a
+    sample on a reversal is 0 and not a rounding accident), "arctan" (2/π) arctan(v/δ), "erf" erf(v/δ), or
+    "algebraic" v / √(v² + δ²) with δ = ``width``."""
+    v = np.asarray(v, float)
+    if kind == "exact":
+        tiny = 1e-9 * (np.max(np.abs(v)) if v.size else 0.0)
+        return np.where(np.abs(v) <= tiny, 0.0, np.sign(v))
+    if width <= 0:
+        raise ValueError(f"a smoothed sign ({kind!r}) needs a positive width, got {width}")
+    if kind == "arctan":
+        return (2.0 / math.pi) * np.arctan(v / width)
+    if kind == "erf":
+        return erf(v / width)
+    if kind == "algebraic":
+        return v / np.sqrt(v * v + width * width)
+    raise ValueError(f"unknown sign kind {kind!r}; choose exact, arctan, erf or algebraic")
+
+
+def stribeck_curve(v, Fc: float, Fs: float, vs: float, shape: float = 2.0) -> np.ndarray:
+    """Sliding level g(v) = Fc + (Fs − Fc) exp(−|v / vs|^shape) (≥ 0, even in v)."""
+    return Fc + (Fs - Fc) * np.exp(-np.abs(np.asarray(v, float) / vs) ** shape)
+
+
+def cogging(x, amplitude: float, period: float, phase: float = 0.0) -> np.ndarray:
+    """A position-periodic force A sin(2π x / p + φ) (detent / cogging of a geared or magnetic drive)."""
+    return amplitude * np.sin(2 * math.pi * np.asarray(x, float) / period + phase)
+
+
+# -- input operators and path-dependent states ---------------------------------------------------------------
+
+
+def play(x, r: float, y0: float | None = None) -> np.ndarray:
+    """The exact discrete play (backlash) operator of half-width r: y_k = min(max(y_{k−1}, x_k − r), x_k + r),
+    starting at y0 (default x_0, the play centred on the initial input). Apply it on a refined input."""
+    x = np.asarray(x, float)
+    y = np.empty_like(x)
+    prev = x[0] if y0 is None else float(y0)
+    for k, xk in enumerate(x):
+        prev = min(max(prev, xk - r), xk + r)
+        y[k] = prev
+    return y
+
+
+def play_rate(x, v, y, r: float) -> np.ndarray:
+    """ẏ of the play output: v where the gap is closed in the direction of motion, else 0."""
+    x, v, y = (np.asarray(a, float) for a in (x, v, y))
+    gap = x - y
+    engaged = (np.abs(gap) >= r * (1 - 1e-9) - 1e-15) & (v * gap > 0)
+    return np.where(engaged, v, 0.0)
+
+
+def dahl_exact(x, sigma0: float, Fc: float, z0: float = 0.0) -> np.ndarray:
+    """Dahl's bristle deflection z along a displacement path, exactly between consecutive points.
+
+    ż = v − σ0 |v| z / Fc is rate-independent: along a monotone step of length Δx in direction s,
+    z ← s Fc/σ0 + (z − s Fc/σ0) exp(−σ0 |Δx| / Fc). The force is σ0 z. Use a refined path (reversals
+    inside a step are then negligible)."""
+    x = np.asarray(x, float)
+    z = np.empty_like(x)
+    z[0] = prev = float(z0)
+    level = Fc / sigma0
+    decay = np.exp(-np.abs(np.diff(x)) / level)
+    steps = np.sign(np.diff(x))
+    for k in range(1, len(x)):
+        target = steps[k - 1] * level
+        prev = target + (prev - target) * decay[k - 1]
+        z[k] = prev
+    return z
+
+
+def cumulative_travel(x) -> np.ndarray:
+    """s_k = Σ_{j ≤ k} |x_j − x_{j−1}|, the distance travelled since the start (exact for a monotone path
+    between the points)."""
+    x = np.asarray(x, float)
+    return np.r_[0.0, np.cumsum(np.abs(np.diff(x)))]
+
+
+def linear_lag(t, u, rate: float, y0: float = 0.0) -> np.ndarray:
+    """y' = −λ y + u(t) integrated exactly for u linear between the points of ``t`` (first-order hold)."""
+    t, u = np.asarray(t, float), np.asarray(u, float)
+    lam = float(rate)
+    y = np.empty_like(u)
+    y[0] = prev = float(y0)
+    for k in range(1, len(t)):
+        h = t[k] - t[k - 1]
+        e = math.exp(-lam * h)
+        slope = (u[k] - u[k - 1]) / h
+        # exact: y(h) = e y0 + ∫_0^h e^{−λ(h−s)} (u0 + slope s) ds
+        i0 = (1 - e) / lam
+        i1 = (h - i0) / lam
+        prev = e * prev + u[k - 1] * i0 + slope * i1
+        y[k] = prev
+    return y
+
+
+def maxwell_force(t, v, stiffness: float, damping: float) -> np.ndarray:
+    """Force of a Maxwell element (spring k_m in series with a dashpot c_m) along a velocity history:
+    Ḟ = k_m v − (k_m / c_m) F, F(0) = 0, by the exact exponential integrator."""
+    v = np.asarray(v, float)
+    return linear_lag(t, stiffness * v, stiffness / damping)
+
+
+# -- ordinary differential equations ---------------------------------------------------------------------------
+
+
+def integrate(rhs: Callable[[float, np.ndarray], np.ndarray], t_out, y0, method: str = "LSODA", rtol: float = 1e-9,
+              atol: float = 1e-11, refine: int = 10) -> np.ndarray:
+    """solve_ivp from t_out[0] over ``t_out`` with the step limited to (sample interval) / ``refine``; returns
+    the states at t_out, shape ``(len(t_out), len(y0))``. Raises RuntimeError when the solver fails."""
+    t_out = np.asarray(t_out, float)
+    max_step = float(np.min(np.diff(t_out))) / refine
+    sol = solve_ivp(rhs, (t_out[0], t_out[-1]), np.asarray(y0, float), method=method, t_eval=t_out, rtol=rtol,
+                    atol=atol, max_step=max_step)
+    if not sol.success:
+        raise RuntimeError(f"solve_ivp ({method}) failed: {sol.message}")
+    return sol.y.T
+
+
+def heun(rhs: Callable[[float, np.ndarray], np.ndarray], t_out, y0, refine: int = 20) -> np.ndarray:
+    """Heun's method (explicit trapezoid, second order) with ``refine`` steps per sample interval; states at
+    t_out, shape ``(len(t_out), len(y0))``."""
+    t_out = np.asarray(t_out, float)
+    y = np.asarray(y0, float).copy()
+    out = np.empty((len(t_out), len(y)))
+    out[0] = y
+    for k in range(1, len(t_out)):
+        t0, h = t_out[k - 1], (t_out[k] - t_out[k - 1]) / refine
+        for j in range(refine):
+            t = t0 + j * h
+            k1 = rhs(t, y)
+            k2 = rhs(t + h, y + h * k1)
+            y = y + 0.5 * h * (k1 + k2)
+        out[k] = y
+    return out
+
+
+def lugre(t, signal: Sines, sigma0: float, sigma1: float, sigma2: float, Fc: float, Fs: float, vs: float,
+          method: str = "LSODA") -> np.ndarray:
+    """LuGre friction force along the motion ``signal`` (Canudas de Wit et al. 1995):
+    ż = v − σ0 |v| z / g(v), F = σ0 z + σ1 ż + σ2 v, g the Stribeck curve, z(0) = 0; solved by ``method``."""
+
+    def dz(tt, z):
+        v = float(signal.v(np.array([tt]))[0])
+        return np.array([v - sigma0 * abs(v) * z[0] / float(stribeck_curve(v, Fc, Fs, vs))])
+
+    z = integrate(dz, t, [0.0], method=method)[:, 0]
+    v = signal.v(t)
+    zdot = v - sigma0 * np.abs(v) * z / stribeck_curve(v, Fc, Fs, vs)
+    return sigma0 * z + sigma1 * zdot + sigma2 * v
+
+
+def bouc_wen_yield(t, signal: Sines, Fy: float, xy: float, n: float, b: float, method: str = "LSODA") -> np.ndarray:
+    """Bouc–Wen hysteresis in yield form: F = Fy ζ, ζ̇ = (v / xy) [1 − |ζ|^n (b sgn(v ζ) + 1 − b)], ζ(0) = 0.
+
+    Fy is the yield (saturation) force, xy the yield displacement, b ∈ [0, 1] the loop shape (b = 1/2 the
+    classic shape). In the (k, β, γ, n) form F = k z, ż = v − β|v||z|^(n−1) z − γ v |z|^n this is
+    k = Fy / xy, β = b / xy^n, γ = (1 − b) / xy^n. Monotone loading from rest gives ζ = 1 − e^(−x/xy) at
+    n = 1 and ζ = tanh(x / xy) at n = 2."""
+
+    def dzeta(tt, s):
+        v = float(signal.v(np.array([tt]))[0])
+        z = s[0]
+        return np.array([(v / xy) * (1 - abs(z) ** n * (b * np.sign(v * z) + 1 - b))])
+
+    return Fy * integrate(dzeta, t, [0.0], method=method)[:, 0]
+
+
+def oscillator(t, drive: Sines, mass: float, damping: float, stiffness: float,
+               extra: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+               method: str = "DOP853") -> np.ndarray:
+    """Displacement of m ẍ + c ẋ + k x + F_extra(x, ẋ, u) = u(t) from rest, u = ``drive``; solved by
+    ``method`` (DOP853 for smooth laws, LSODA or Radau where a smoothed sign makes it stiff)."""
+
+    def rhs(tt, s):
+        x, v = s
+        u = float(drive.x(np.array([tt]))[0])
+        f = damping * v + stiffness * x
+        if extra is not None:
+            f += float(extra(np.array([x]), np.array([v]), np.array([u]))[0])
+        return np.array([v, (u - f) / mass])
+
+    return integrate(rhs, t, [0.0, 0.0], method=method, rtol=1e-10, atol=1e-12)[:, 0]
+
+
+# -- noise -------------------------------------------------------------------------------------------------------
+
+
+def white_noise(n: int, sd: float, rng: np.random.Generator) -> np.ndarray:
+    """Independent Gaussian samples of standard deviation ``sd``."""
+    return sd * rng.standard_normal(n)
+
+
+def ar1_noise(n: int, sd: float, phi: float, rng: np.random.Generator) -> np.ndarray:
+    """Stationary AR(1) noise e_k = φ e_{k−1} + √(1 − φ²) sd w_k (marginal sd ``sd``, lag-1 correlation φ)."""
+    if not -1 < phi < 1:
+        raise ValueError(f"AR(1) coefficient must lie in (-1, 1), got {phi}")
+    w = rng.standard_normal(n)
+    e = np.empty(n)
+    e[0] = sd * w[0]
+    c = math.sqrt(1 - phi * phi) * sd
+    for k in range(1, n):
+        e[k] = phi * e[k - 1] + c * w[k]
+    return e
