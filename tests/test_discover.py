@@ -1,5 +1,6 @@
 """The discovery loop: names an undeclared effect, recovers it, adds nothing to a correct model, and
-fails clearly on bad input. The full per-effect recovery table is ``scripts/discovery_recovery.py``."""
+fails clearly on bad input. Discovery on data the library did not make: ``tests/test_testbed.py`` and
+``scripts/discovery_testbed.py``."""
 
 from __future__ import annotations
 
@@ -136,24 +137,3 @@ def test_discover_app_on_the_measured_brfd_data(tmp_path):
     assert (tmp_path / "report.md").read_text().startswith("# Discovery: BRFD")
     with pytest.raises(ValueError, match="is for hybridhyst-study, not hybridhyst-discover"):
         app.run(wrong)
-
-
-KNOWN_UNIDENTIFIABLE = {
-    "linear_stiffness": "a stiff, strong Dahl element acts as the spring over the whole stroke",
-}
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("effect", [*CASES, None])
-def test_recovery_of_every_library_effect(effect):
-    """The table of experiments/discovery_recovery/README.md as a test (about 7 minutes in all)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-    from discovery_recovery import run_case
-
-    if effect in KNOWN_UNIDENTIFIABLE:
-        pytest.xfail(KNOWN_UNIDENTIFIABLE[effect])
-    row = run_case(effect, "fast")
-    assert row["ok"], row

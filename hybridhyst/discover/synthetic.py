@@ -1,5 +1,6 @@
-"""Synthetic data with an undeclared effect: the test bed of the discovery loop (tests and
-``scripts/discovery_recovery.py``). A damper law (in, kip, s) of viscous damping and a linear spring,
+"""Synthetic data with an undeclared effect, made by the library's own effects and simulator: quick unit
+tests of the discovery loop's mechanics (an "inverse crime"; the judge of discovery is the independent
+test bed, ``hybridhyst.testbed``). A damper law (in, kip, s) of viscous damping and a linear spring,
 plus one library effect with known values, driven by sine tests at several amplitudes and frequencies.
 Effects that only exist in a driven oscillator (``OSCILLATOR_CASES``: attenuation, F = ξ|x|u) get a
 mass–spring–damper driven by a sine force u [kip] instead, whose response is the displacement [in]."""
