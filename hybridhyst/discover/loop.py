@@ -325,15 +325,13 @@ FLAG_SHARE = 0.1  # residual variance a small network recovers on validation abo
 
 
 def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) -> bool:
-    """True when structure is left that the library did not name: the residual network recovers more than
-    ``FLAG_SHARE`` of the remaining residual's variance on validation records (and, with a known noise level,
-    the training error is above 1.2 × noise)."""
+    """True when structure is left that the library did not name: with a known noise level, a training error
+    above 1.2 × noise; without one, a residual network that recovers more than ``FLAG_SHARE`` of the
+    remaining residual's variance on validation records."""
+    if noise_sd is not None and math.isfinite(train_rmse):
+        return train_rmse > 1.2 * float(noise_sd)
     share = network.get("explained_share")
-    if share is None or not math.isfinite(share):
-        return False
-    if noise_sd is not None and train_rmse <= 1.2 * float(noise_sd):
-        return False
-    return share > FLAG_SHARE
+    return share is not None and math.isfinite(share) and share > FLAG_SHARE
 
 
 def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:
