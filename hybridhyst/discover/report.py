@@ -136,8 +136,9 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
               f"network of (x, ẋ, sign ẋ, travel since reversal) recovers "
               f"{_fmt(100 * u['residual_network']['explained_share'])} % of the remaining residual variance on the "
               f"{u['residual_network']['on']} records." + (
-                  " **Structure is left that no library effect explains** (flagged: above 1.2 × the known noise, or "
-                  "the network recovers more than 10 % of it); look at the residual figures for its shape." if u.get("structure_flagged") else ""),
+                  " **Structure is left that no library effect explains** (flagged: above 1.2 × the known noise, "
+                  "or the network recovers more than 10 % of it); look at the residual figures for its shape."
+                  if u.get("structure_flagged") else ""),
               "",
               "![Residual against each feature, before and after](residuals.png)", "",
               "![Loops: measured, before and after](loops.png)", ""]
