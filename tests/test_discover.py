@@ -137,3 +137,30 @@ def test_discover_app_on_the_measured_brfd_data(tmp_path):
     assert (tmp_path / "report.md").read_text().startswith("# Discovery: BRFD")
     with pytest.raises(ValueError, match="is for hybridhyst-study, not hybridhyst-discover"):
         app.run(wrong)
+
+
+def test_trend_per_parameter_is_chosen_by_aicc_over_the_levels():
+    """Per-level estimates with scatter (50 draws each): a constant, a linear and an exponential law are told
+    apart at the rates the loop relies on; three levels never get a three-coefficient form."""
+    from hybridhyst.discover.trends import choose_trend
+
+    c = np.linspace(0.01, 0.09, 9)
+    laws = {"constant": 2.0 + 0.0 * c, "linear": 0.5 + 12.5 * c, "exp_growth": 1.0 + 0.2 * np.exp(40 * c)}
+    for truth, y in laws.items():
+        picks = [choose_trend(c, y + 1e-3 * np.random.default_rng(s).standard_normal(9)) for s in range(50)]
+        share = np.mean([kind == truth for kind, _ in picks])
+        assert share >= (0.95 if truth == "exp_growth" else 0.8), (truth, share)
+    kind, coef = choose_trend(c, laws["linear"])
+    assert kind == "linear" and coef["slope"] == pytest.approx(12.5)
+    kind, coef = choose_trend(c, laws["exp_growth"])
+    assert kind == "exp_growth" and coef["b"] == pytest.approx(40, rel=1e-3)
+    assert choose_trend(c[:3], laws["exp_growth"][:3])[0] in ("constant", "linear")
+
+
+def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network():
+    from hybridhyst.discover.loop import structure_flagged
+
+    assert structure_flagged({"explained_share": 0.0}, train_rmse=0.3, noise_sd=0.2)
+    assert not structure_flagged({"explained_share": 0.9}, train_rmse=0.21, noise_sd=0.2)
+    assert structure_flagged({"explained_share": 0.3}, train_rmse=0.3, noise_sd=None)
+    assert not structure_flagged({"explained_share": 0.05}, train_rmse=0.3, noise_sd=None)

@@ -188,6 +188,12 @@ def test_backlash_is_the_play_operator_at_any_sample_rate():
     assert errors[1] / errors[2] > 50  # ten times the rate: about a hundred times less error
 
 
+def test_backlash_needs_the_projecting_fixed_step_solver():
+    t, x = sine(1.0, 1.0, 1.0, 0.01)
+    with pytest.raises(ValueError, match="cannot project bounded states"):
+        simulate(Constitutive([Backlash(r=0.1), LinearStiffness(k=1.0)]), x[None], t=t, solver="torchdiffeq")
+
+
 def test_backlash_coulomb_shows_dead_band_after_reversal():
     r, margin = 0.2, 0.05
     t, x, F = backlash_loop(r, [Coulomb(Fc=1.0, v_s=0.05)])

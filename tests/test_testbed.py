@@ -299,15 +299,19 @@ def test_score_rules():
 # -- (e) one small case end to end -------------------------------------------------------------------------------
 
 
-def test_run_case_end_to_end_row_is_well_formed():
+@pytest.mark.parametrize("name", ["clean_friction", "linear_stiffness"])
+def test_fast_cases_end_to_end_pass(name):
+    """The fast subset of the bed in the default run: a clean control (nothing added) and a single effect at
+    20 samples per cycle (named, key parameter within tolerance, held-out error at the noise)."""
     import torch
 
     from hybridhyst.testbed.cases import CASE_BY_NAME, FAST_CASES
     from hybridhyst.testbed.run import markdown, run_case
 
+    assert name in FAST_CASES
     old = torch.get_default_dtype()
     try:
-        row = run_case(CASE_BY_NAME[FAST_CASES[0]])
+        row = run_case(CASE_BY_NAME[name])
     finally:
         torch.set_default_dtype(old)
     assert row["error"] is None, row["error"]
@@ -318,6 +322,7 @@ def test_run_case_end_to_end_row_is_well_formed():
     assert row["wall_s"] > 0
     assert isinstance(row["ok"], bool) and isinstance(row["ok_rmse"], bool) and isinstance(row["flagged"], bool)
     assert row["name"] in markdown([row])
+    assert row["ok"] and row["ok_rmse"] and row["ok_effect"], row
 
 
 # -- (d) the whole bed against its targets (expected to fail until the loop meets them) ---------------------------

@@ -40,7 +40,6 @@ __all__ = [
     "jsonable",
     "load_records",
     "model_conditions",
-    "parameter_table",
     "prepare_run_dir",
     "split_options",
     "torch_settings",
@@ -93,31 +92,6 @@ def instantiate(node, **kwargs):
             raise cause from None
         detail = f": {cause}" if cause is not None else ""
         raise ValueError(str(exc).splitlines()[0].rstrip(":") + detail) from exc
-
-
-def parameter_table(model) -> dict[str, dict[str, dict]]:
-    """{effect: {parameter: {"value": float or text, "unit": str, "fixed": bool}}} of a nominal model.
-
-    Constant parameters give a number; condition-dependent ones their description (e.g. a polynomial).
-    """
-    from ..physics.parameters import Constant, Fixed
-
-    out: dict[str, dict[str, dict]] = {}
-    described = model.describe()
-    for key, params in described.items():
-        if key in getattr(model, "effects", {}):
-            fns = dict(model.effects[key].params.items())
-        else:
-            fns = dict(getattr(model, "structure_params", {}).items())
-        out[key] = {}
-        for pname, info in params.items():
-            fn = fns.get(pname)
-            if isinstance(fn, (Constant, Fixed)):
-                value = float(fn(None, 1)[0].detach())
-            else:
-                value = info["value"]
-            out[key][pname] = {"value": value, "unit": info["unit"], "fixed": isinstance(fn, Fixed)}
-    return out
 
 
 @contextlib.contextmanager

@@ -29,7 +29,6 @@ from .common import (
     hydra_entry,
     instantiate,
     load_records,
-    parameter_table,
     prepare_run_dir,
     split_options,
     to_plain,
@@ -133,7 +132,7 @@ def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_fact
     fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
                 "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s}
     return {
-        "parameters": parameter_table(model),
+        "parameters": model.parameter_table(),
         "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
         "per_record": {**scores["train"]["per_record"], **scores["held_out"]["per_record"]},
         "split": {"train": train.names, "held_out": held_out.names},

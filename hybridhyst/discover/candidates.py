@@ -101,10 +101,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
     Amplitude-like parameters (those with a neutral value, and forces [F]) start small (0.05 and 0.3 of
     their scale); shape parameters at their scale (or default when dimensionless) and 10× that. An effect
     may give ``discovery_units = {parameter: unit template}`` for parameters whose literal unit is "-" but
-    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x"), and ``discovery_constants =
-    {argument: (unit template, factor)}`` for constructor constants set from the data (backlash's
-    smoothing width: 2 % of the displacement scale), and ``discovery_fixed = {parameter: value}`` for
-    parameters held fixed in the candidate (Bouc–Wen is added in its identifiable normalised form).
+    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x"), and ``discovery_fixed = {parameter:
+    value}`` for parameters held fixed in the candidate (Bouc–Wen is added in its identifiable normalised
+    form). Effects with neutral values also start at them: the fitted model itself.
     """
     present = {e.name for e in model.effects.values()}
     out = []
@@ -140,12 +139,9 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
             starts.append({f"{key}.{p}": min(max(float(neutral.get(p, low[p])), bounds[f"{key}.{p}"][0]),
                                              bounds[f"{key}.{p}"][1]) for p in free})
 
-        constants = {name: factor * scales.of_unit(unit)
-                     for name, (unit, factor) in getattr(cls, "discovery_constants", {}).items()}
-
-        def build(m, key=key, cls=cls, start=starts[0], constants=constants, held=held):
+        def build(m, key=key, cls=cls, start=starts[0], held=held):
             values = {k.split(".", 1)[1]: v for k, v in start.items()}
-            return _placed(m, key, cls(**constants, **values, **held, fixed=sorted(held)))
+            return _placed(m, key, cls(**values, **held, fixed=sorted(held)))
 
         doc = (cls.__doc__ or name).strip().splitlines()[0]
         out.append(Candidate(name=name, kind="effect", build_fn=build, free=list(bounds), bounds=bounds,

@@ -132,12 +132,13 @@ def polish(model, train, sim, lm_steps: int, box_factor: float) -> Fit:
     space = SearchSpace(model, factor=box_factor)
     problem = _problem(space, train, sim, sim["substeps"])
     x0 = space.initial().clamp(space.lower, space.upper)
+    sse0 = float(_sse(problem, x0[None])[0])
     lm = converged_lm(problem, space, x0[None], lm_steps)
-    x = lm.x if math.isfinite(lm.cost) and lm.cost * problem.n_samples <= float(_sse(problem, x0[None])[0]) else x0
+    x = lm.x if math.isfinite(lm.cost) and lm.cost * problem.n_samples <= sse0 else x0
     fit = resolve(space, train, sim, x, lm_steps)
     if fit is None:  # keep the model as it was
         space.to_model(x0)
-        return Fit(model, float(_sse(problem, x0[None])[0]), space.dim, {}, sim["substeps"])
+        return Fit(model, sse0, space.dim, {}, sim["substeps"])
     return fit
 
 

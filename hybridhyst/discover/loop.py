@@ -66,7 +66,7 @@ def _predict(model, records, sim) -> list[np.ndarray]:
 
 
 def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
-    """Pooled RMSE and RMSE per condition label (``training.evaluate.split_metrics``); {} without records."""
+    """Pooled RMSE and RMSE per condition label (``analysis.split_metrics``); {} without records."""
     out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p, "warmup": r.warmup}
                          for r, p in zip(records, preds)])
     if out:

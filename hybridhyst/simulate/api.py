@@ -148,6 +148,9 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         if t.ndim != 1:
             raise ValueError("solver='torchdiffeq' integrates every row on one time grid; give t as (time,) or "
                              "simulate records with different grids separately")
+        if model.state_bounds(P) is not None:
+            raise ValueError("solver='torchdiffeq' cannot project bounded states (the play operator of backlash); "
+                             "use solver='fixed'")
         if values is not None:
             raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
         states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=rtol, atol=atol,
