@@ -39,7 +39,6 @@ __all__ = [
     "instantiate",
     "jsonable",
     "load_records",
-    "model_conditions",
     "prepare_run_dir",
     "split_options",
     "torch_settings",
@@ -183,22 +182,14 @@ def check_kwargs(options: dict, fn: Callable, where: str, reserved: tuple[str, .
     return options
 
 
-def model_conditions(model) -> list[str]:
-    """Names of the operating conditions the model's parameter functions read (e.g. ``pressure_mpa``)."""
-    found = []
-    for module in model.modules():
-        name = getattr(module, "condition", None)
-        if isinstance(name, str) and name not in found:
-            found.append(name)
-    return found
-
-
 def check_model_conditions(model, split, what: str = "model") -> None:
     """Every record of ``split`` (``Split`` or a record set) has the conditions the model's parameter functions
-    need (``model_conditions``), as numbers; else a one-line ``ValueError`` naming the condition and records."""
+    need (``physics.models.conditions_used``), as numbers; else a one-line ``ValueError`` naming the condition
+    and records."""
     from ..data.splits import Split, check_conditions
+    from ..physics.models import conditions_used
 
-    names = model_conditions(model)
+    names = conditions_used(model)
     if names:
         parts = split if isinstance(split, Split) else Split(list(split), [], [])
         check_conditions(parts, names, f"{what} (a parameter as a function of a condition)")

@@ -17,14 +17,13 @@ from omegaconf import DictConfig
 
 from ..data.datamodule import decimation_factors
 from ..data.records import RecordSet
-from ..data.splits import Split, check_conditions
+from ..data.splits import Split
 from ..discover import discover
 from ..discover.report import write_discovery
 from .common import (
     CONF_DIR,
     check_app,
     check_kwargs,
-    check_model_conditions,
     guarded,
     hydra_entry,
     instantiate,
@@ -35,7 +34,7 @@ from .common import (
     torch_settings,
 )
 
-__all__ = ["check_trend_conditions", "load_split", "main", "run", "summary_lines"]
+__all__ = ["load_split", "main", "run", "summary_lines"]
 
 
 def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
@@ -48,26 +47,6 @@ def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
     factors = decimation_factors(records, samples_per_cycle, downsample, frequency)
     records = RecordSet([r.slice(step=factors[r.name]) if factors[r.name] > 1 else r for r in records], records.name)
     return records, records.split(held_out=split["held_out"], val=split["val"])
-
-
-def check_trend_conditions(parts: Split, conditions) -> None:
-    """The conditions ``discover.conditions`` names for trends (a parameter as a linear function of them) must
-    be numbers in every record, training, validation and test alike (a trend is evaluated on each), and take
-    at least two values on the training records (else its slope is not determined). With ``true`` (every
-    numeric condition of the training records), such a condition that a validation or test record lacks is an
-    error too. A ``ValueError`` names the condition and the records."""
-    if conditions is True:
-        train = list(parts.train)
-        names = [k for k in dict.fromkeys(k for r in train for k in r.conditions)
-                 if all(isinstance(r.conditions.get(k), (int, float)) and not isinstance(r.conditions.get(k), bool)
-                        and math.isfinite(float(r.conditions[k])) for r in train)]
-        check_conditions(parts, names, "discover.conditions=true (every numeric condition of the training "
-                         "records; name the ones to use as a list, or false for none)")
-    elif conditions:
-        if isinstance(conditions, str) or not isinstance(conditions, (list, tuple)):
-            raise ValueError(f"discover.conditions must be true, false or a list of condition names, got "
-                             f"{conditions!r}")
-        check_conditions(parts, list(conditions), "discover.conditions", min_train_values=2)
 
 
 def summary_lines(report: dict, unit: str, run_dir: Path | str) -> list[str]:
@@ -105,10 +84,8 @@ def run(cfg: DictConfig) -> dict:
     d = cfg.discover
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         records, parts = load_split(cfg)
-        conditions = to_plain(d.conditions)
-        check_trend_conditions(parts, conditions)
+        conditions = to_plain(d.conditions)  # checked by discover, before any fitting
         model = instantiate(cfg.model, _convert_="all").double()
-        check_model_conditions(model, parts)
         split = split_options(cfg, ("held_out", "val"))
         from ..identify import identify
 

@@ -23,7 +23,9 @@ import torch
 
 from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
+from ..data.splits import Split, check_conditions
 from ..identify import identify
+from ..physics.models import conditions_used
 from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
@@ -87,6 +89,24 @@ def _numeric_conditions(records) -> dict[str, list[float]]:
             if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(float(v)):
                 out.setdefault(k, []).append(float(v))
     return {k: v for k, v in out.items() if len(v) == len(records)}
+
+
+def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
+    """``{condition: training values}`` the loop may make parameters depend on: those named (each a number in
+    every record, training, validation and test, with at least two training values; else a one-line error),
+    or with ``True`` every condition that is a number in every record (one that a validation or test record
+    lacks could not be evaluated there, so it is not offered)."""
+    if not conditions:
+        return {}
+    train = list(parts.train)
+    if isinstance(conditions, bool):
+        usable = _numeric_conditions([*train, *parts.val, *parts.test])
+        return {k: v for k, v in _numeric_conditions(train).items() if k in usable}
+    if isinstance(conditions, str):
+        raise ValueError(f"conditions must be true, false or a list of condition names, got {conditions!r}")
+    check_conditions(parts, list(conditions), "discover conditions", min_train_values=2)
+    values = _numeric_conditions(train)
+    return {c: values[c] for c in conditions}
 
 
 def _rmse_of(model, records, sim) -> float:
@@ -177,12 +197,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     sim = {"backend": backend, "method": method, "substeps": int(substeps)}
     if not train:
         raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
-    used = sorted({fn.condition for e in nominal.effects.values() for fn in e.params.values()
-                   if getattr(fn, "condition", None)})
-    lacking = [c for c in used if c not in _numeric_conditions(train)]
-    if lacking:
-        raise ValueError(f"the nominal's parameters are functions of {lacking}, which some training records lack "
-                         f"as a number; give it to every record or make those parameters constant")
+    cond_values = _trend_conditions(conditions, Split(train, val, test))
+    check_conditions(Split(train, val, test), conditions_used(nominal),
+                     "the nominal model (a parameter as a function of a condition)")
     n_train = sum(len(r) for r in train)
     for r in train:
         r.require_samples(16, "discovery (identifying a candidate effect)")
@@ -212,13 +229,6 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     from ..physics.models import DrivenOscillator
 
     scales = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
-    cond_values = _numeric_conditions(train) if conditions else {}
-    if conditions and not isinstance(conditions, bool):
-        missing = [c for c in conditions if c not in cond_values]
-        if missing:
-            raise ValueError(f"condition(s) {missing} are not numeric conditions of every training record; "
-                             f"available: {sorted(cond_values)}")
-        cond_values = {c: cond_values[c] for c in conditions}
     # conditions with enough levels get their trends in one step (every parameter at once); the others keep
     # the one-parameter-at-a-time candidates
     for cond in [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]:

@@ -58,6 +58,16 @@ def _named_effects(effects) -> nn.ModuleDict:
     return nn.ModuleDict(dict(items))
 
 
+def conditions_used(model: nn.Module) -> list[str]:
+    """Names of the operating conditions a model's parameter functions read (e.g. ``pressure_mpa``)."""
+    found = []
+    for module in model.modules():
+        name = getattr(module, "condition", None)
+        if isinstance(name, str) and name not in found:
+            found.append(name)
+    return found
+
+
 class NominalModel(nn.Module):
     """Common machinery: named effects, structure parameters, state layout, kinematics pass."""
 
