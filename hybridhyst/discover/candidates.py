@@ -134,6 +134,13 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         mixed = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else low[p])
                  for p, spec in free.items()}
         starts.append(mixed)
+        # shape parameters well below their scale (a sign smoothing width, a Stribeck speed): an exact sign in
+        # the data needs a width far below the velocity scale, a basin the scale-sized starts do not reach
+        sharp = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else
+                                min(max(0.01 * low[p], bounds[f"{key}.{p}"][0]), bounds[f"{key}.{p}"][1]))
+                 for p, spec in free.items()}
+        if sharp != mixed:
+            starts.append(sharp)
         neutral = {p: spec.neutral for p, spec in free.items() if spec.neutral is not None}
         if neutral:  # the fitted model itself: a candidate's refit can only improve on it
             starts.append({f"{key}.{p}": min(max(float(neutral.get(p, low[p])), bounds[f"{key}.{p}"][0]),

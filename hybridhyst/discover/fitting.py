@@ -115,9 +115,10 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
         order = torch.argsort(costs)[:keep]
         starts = torch.cat([starts, points[order[torch.isfinite(costs[order])]]])
     old = torch.tensor([n not in candidate.free for n in space.names])
-    if bool(old.any()):
-        starts = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
-                                     progress=False).X
+    if bool(old.any()):  # each start both as it is and re-balanced (a re-balance can also lead astray)
+        balanced = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
+                                       progress=False).X
+        starts = torch.cat([starts, balanced])
     lm = converged_lm(problem, space, starts, lm_steps)
     if not math.isfinite(lm.cost):
         return None

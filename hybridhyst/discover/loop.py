@@ -30,6 +30,7 @@ from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
 from .fitting import Fit, fit_candidate, polish, sse_at
+from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
@@ -45,14 +46,6 @@ class DiscoveryResult:
     predictions: dict = field(default_factory=dict)
     splits: dict = field(default_factory=dict)
     initial_model: torch.nn.Module | None = None
-
-
-def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
-    """BIC = n ln(SSE/n) + k ln n, or AIC = n ln(SSE/n) + 2k (Gaussian errors, k free coordinates)."""
-    if n <= 0 or not math.isfinite(sse) or sse <= 0:
-        return math.inf
-    penalty = k * math.log(n) if kind == "bic" else 2 * k
-    return n * math.log(sse / n) + penalty
 
 
 def _as_records(records) -> list[Record]:
@@ -116,33 +109,6 @@ def _rmse_of(model, records, sim) -> float:
 def _at(sim: dict, fit: Fit) -> dict:
     """Simulator settings for a fitted model (its own sub-steps per sample)."""
     return {**sim, "substeps": fit.substeps}
-
-
-def _prune(fit: Fit, train, scored, sim, n_train, opts, ic, val_rmse, progress):
-    """Drop every effect whose contribution vanished: refit without it, and remove it when the information
-    criterion falls and the validation error rises by less than half the margin. Repeats until nothing goes.
-    Returns (fit, ic, val_rmse, removed entries)."""
-    removed = []
-    while len(fit.model.effects) > 1:
-        best = None
-        for key in _progress(list(fit.model.effects), progress, "prune"):
-            reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
-            try:
-                f = polish(reduced, train, _at(sim, fit), opts["lm_steps"], opts["box_factor"])
-            except (ValueError, RuntimeError):
-                continue
-            f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
-            f_val = _rmse_of(f.model, scored, _at(sim, f))
-            if f_ic < ic and f_val <= (1 + opts["margin"] / 2) * val_rmse and (best is None or f_ic < best[1]):
-                best = (key, f_ic, f_val, f)
-        if best is None:
-            break
-        key, ic, new_val, f = best
-        removed.append({"effect": fit.model.effects[key].name, "key": key, "kind": "removed",
-                        "val_rmse_before": val_rmse, "val_rmse_after": new_val,
-                        "train_rmse": math.sqrt(f.sse / n_train)})
-        fit, val_rmse = f, new_val
-    return fit, ic, val_rmse, removed
 
 
 def _parameters(model) -> dict:
@@ -294,10 +260,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
         ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), _rmse_of(fit.model, scored,
                                                                                              _at(sim, fit))
-        fit, ic, val_rmse, gone = _prune(fit, train, scored, sim, n_train, opts, ic, val_rmse, progress)
+        fit, ic, val_rmse, gone = simplify(fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, _rmse_of,
+                                           (lambda items, what: _progress(items, progress, what)))
         for g in gone:
             g["after_step"] = len(steps)
-            tried.add(g["effect"])  # not offered again
+            tried.add(g["effect"])  # not offered again (nor what it was simplified from)
         removed += gone
     model = fit.model
     preds_after, after = evaluate(model, _at(sim, fit))

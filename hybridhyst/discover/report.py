@@ -115,9 +115,11 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     lines += ["", "## Accepted", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):
-        lines += [f"**{g['effect']}** removed after step {g['after_step']}: its contribution vanished (refitted "
-                  f"without it, validation RMSE {_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, "
-                  "and the information criterion fell).", ""]
+        change = (f"replaced by its special case {' + '.join(g['by'])}" if g.get("by") else
+                  "removed: its contribution vanished")
+        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, validation RMSE "
+                  f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, and the information "
+                  "criterion fell).", ""]
     if r["rejected"]:
         s = r["rejected"][0]
         ev = s["evidence"]

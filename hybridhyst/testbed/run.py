@@ -3,8 +3,9 @@
 Every case runs with the same settings, the library defaults: only records, nominal, split and noise_sd
 are passed. Per case (``run_case``):
 
-* named: the accepted effects in order (steps of kind "effect"), less any the loop pruned again at a later
-  step (``report["removed"]``: no longer in the final model); trends: the accepted condition steps (kind
+* named: the effects of the final model that the nominal lacked (``report["effects"]["added"]``: one
+  accepted and removed again, or replaced by a simpler special case, is not named; the simpler one is);
+  trends: the accepted condition steps (kind
   "trend" or "condition": parameters made functions of a condition), reported apart and not counted as
   effects; dropped: nominal effects the loop removed (reported, not scored);
 * single / pair / condition: found = every expected family has a member among the named effects, wrong =
@@ -25,7 +26,6 @@ from __future__ import annotations
 import math
 import time
 import traceback
-from collections import Counter
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 
@@ -64,15 +64,9 @@ def _lookup(coord: str, report: dict):
 def score(case: Case, report: dict, wall_s: float) -> dict:
     """The row of one case from its discovery report."""
     steps = report.get("steps", [])
-    removed = report.get("removed", [])
-    # an effect accepted at one step and pruned at a later one is not in the final model: not named
-    gone = Counter(r["effect"] for r in removed if r.get("after_step") is not None)
-    named = []
-    for s in reversed([s for s in steps if s.get("kind", "effect") == "effect"]):
-        if gone[s["effect"]]:
-            gone[s["effect"]] -= 1
-        else:
-            named.insert(0, s["effect"])
+    # what the final model holds beyond the nominal (effects accepted and later removed, or replaced by a
+    # simpler special case, are not named; the simpler ones are)
+    named = list((report.get("effects") or {}).get("added", []))
     trends = [s["effect"] for s in steps if s.get("kind", "effect") != "effect"]
     dropped = list((report.get("effects") or {}).get("dropped", []))
     params = report.get("after", {}).get("parameters", {})

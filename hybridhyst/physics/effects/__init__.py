@@ -10,6 +10,7 @@ from .base import Effect as Effect
 from .base import Kinematics as Kinematics
 from .bouc_wen import BoucWenHysteresis as BoucWenHysteresis
 from .bouc_wen_p import BoucWenNormalised as BoucWenNormalised
+from .clearance import Clearance as Clearance
 from .coulomb import Coulomb as Coulomb
 from .cubic_stiffness import CubicStiffness as CubicStiffness
 from .dahl import Dahl as Dahl
@@ -35,6 +36,7 @@ EFFECTS: dict[str, type[Effect]] = {
         Dahl,
         LuGre,
         Backlash,
+        Clearance,
         Inertia,
         Attenuation,
         TimeDelay,
@@ -49,6 +51,7 @@ __all__ = [
     "Backlash",
     "BoucWenHysteresis",
     "BoucWenNormalised",
+    "Clearance",
     "Coulomb",
     "CubicStiffness",
     "Dahl",

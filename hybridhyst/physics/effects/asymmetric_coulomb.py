@@ -28,6 +28,7 @@ class AsymmetricCoulomb(Effect):
     name = "asymmetric_coulomb"
     equation = "F = Fc * tanh(v / v_s) + dF * |tanh(v / v_s)|"
     source = "Olsson et al. 1998 (direction-dependent Coulomb level)"
+    special_cases = (("coulomb",),)  # dF = 0
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "Fc": ParameterSpec(0.0, "F", (0.0, 1e6), "nonnegative", neutral=0.0, doc="mean sliding friction level"),
         "dF": ParameterSpec(0.0, "F", (-1e6, 1e6), "real", neutral=0.0,

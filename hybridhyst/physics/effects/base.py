@@ -127,6 +127,9 @@ class Effect(nn.Module):
     name: ClassVar[str] = "effect"
     equation: ClassVar[str] = ""
     source: ClassVar[str] = ""
+    # simpler effect sets this effect contains as an exact special case or limit (e.g. Stribeck with vs → ∞ is
+    # Coulomb): the discovery loop tries each in its place and keeps the simpler one when the data allow
+    special_cases: ClassVar[tuple[tuple[str, ...], ...]] = ()
 
     def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
         super().__init__()

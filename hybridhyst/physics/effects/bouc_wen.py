@@ -30,6 +30,7 @@ class BoucWenHysteresis(Effect):
     state_dim = 1
     equation = "F = a(k x + k1 x^3) + (1-a) kappa z;  D dz/dt = A v - beta|v||z|^(n-1) z - gamma v |z|^n"
     source = "Bouc 1967; Wen 1976; seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
+    special_cases = (("dahl",),)  # in the discovery form F = k z: n = 1, γ = 0 is Dahl (σ0 = k, Fc = k/β)
     specs = {
         "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "real", doc="ratio of elastic to total stiffness"),
         "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", neutral=0.0,

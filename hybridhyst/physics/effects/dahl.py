@@ -31,6 +31,7 @@ class Dahl(Effect):
     state_dim = 1
     equation = "dz/dt = v - sigma0 |v| z / Fc;  F = sigma0 z"
     source = "Dahl 1968"
+    special_cases = (("coulomb",),)  # σ0 → ∞: rigid-plastic, Coulomb
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "sigma0": ParameterSpec(1e3, "F/x", (1e-9, 1e12), "positive", doc="presliding (bristle) stiffness"),
         "Fc": ParameterSpec(1.0, "F", (1e-12, 1e9), "positive", doc="sliding (Coulomb) friction level"),

@@ -36,6 +36,8 @@ class LuGre(Effect):
     state_dim = 1
     equation = "g = Fc + (Fs-Fc) exp(-(v/vs)^2);  dz/dt = v - sigma0 |v| z / g;  F = sigma0 z + sigma1 dz/dt + sigma2 v"
     source = "Canudas de Wit et al. 1995"
+    # Fs = Fc, σ1 = σ2 = 0: Dahl (with σ2: + viscous); Fc, Fs → 0: viscous
+    special_cases = (("dahl",), ("dahl", "viscous"), ("viscous",))
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "sigma0": ParameterSpec(1e3, "F/x", (1e-9, 1e12), "positive", doc="bristle stiffness"),
         "sigma1": ParameterSpec(0.0, "F*t/x", (0.0, 1e9), "nonnegative", neutral=0.0, doc="bristle micro-damping"),

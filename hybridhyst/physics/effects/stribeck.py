@@ -28,6 +28,7 @@ class Stribeck(Effect):
     name = "stribeck"
     equation = "F = dFs * exp(-(v/vs)^2) * tanh(v / v_s)"
     source = "Stribeck 1902; Canudas de Wit et al. 1995"
+    special_cases = (("coulomb",),)  # vs → ∞: a constant excess level, i.e. Coulomb
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "dFs": ParameterSpec(0.0, "F", (0.0, 1e6), "nonnegative", neutral=0.0,
                              doc="static minus sliding friction level"),

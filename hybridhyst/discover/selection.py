@@ -1,0 +1,88 @@
+"""Selection that can also remove and swap: after each accepted step, every effect of the model is refitted
+without it and in place of it each simpler set of effects it contains as a special case
+(``Effect.special_cases``: Stribeck with vs → ∞ is Coulomb, LuGre with Fs = Fc and no damping is Dahl,
+Bouc–Wen with n = 1, γ = 0 is Dahl, ...). A greedy loop takes the most flexible element that explains the
+residual at one step; once the rest of the model is in place, the simpler element often does as well."""
+
+from __future__ import annotations
+
+import math
+
+from ..physics.effects import EFFECTS
+from .candidates import Candidate, effect_candidates
+from .fitting import Fit, fit_candidate, polish
+
+__all__ = ["combined", "information_criterion", "simplify"]
+
+
+def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
+    """BIC = n ln(SSE/n) + k ln n, or AIC = n ln(SSE/n) + 2k (Gaussian errors, k free coordinates)."""
+    if n <= 0 or not math.isfinite(sse) or sse <= 0:
+        return math.inf
+    penalty = k * math.log(n) if kind == "bic" else 2 * k
+    return n * math.log(sse / n) + penalty
+
+
+def combined(candidates: list[Candidate]) -> Candidate:
+    """One candidate that adds several effects at once: their builders in turn, their new coordinates and
+    bounds together, the i-th start of each together (the shorter lists repeat their last start)."""
+    def build(m):
+        for c in candidates:
+            m = c.build(m)
+        return m
+
+    n = max(len(c.starts) for c in candidates)
+    starts = [{k: v for c in candidates for k, v in c.starts[min(i, len(c.starts) - 1)].items()} for i in range(n)]
+    return Candidate(name="+".join(c.name for c in candidates), kind="effect", build_fn=build,
+                     free=[f for c in candidates for f in c.free],
+                     bounds={k: v for c in candidates for k, v in c.bounds.items()}, starts=starts,
+                     describe="; ".join(c.describe for c in candidates),
+                     meta={"effects": [c.name for c in candidates]})
+
+
+def _alternatives(fit: Fit, key: str, scales):
+    """(names put in its place, builder) for each way to simplify effect ``key``: removal, then each of its
+    special cases whose effects are not in the model already (those present stay and absorb it)."""
+    effect = fit.model.effects[key]
+    reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
+    yield (), reduced, None
+    present = {e.name for e in reduced.effects.values()}
+    for case in getattr(type(effect), "special_cases", ()):
+        new = [n for n in case if n not in present and n in EFFECTS]
+        if new and len(new) == len([n for n in case if n not in present]):
+            yield tuple(case), reduced, combined(effect_candidates(reduced, scales, new))
+
+
+def simplify(fit: Fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, rmse_of, progress=None):
+    """Remove or swap effects while that lowers the information criterion and raises the validation error by
+    less than half the margin: each round takes the alternative with the lowest criterion, until none
+    qualifies. Returns (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or
+    "replaced", ``by`` the effects put in its place)."""
+    changes = []
+    while len(fit.model.effects) > 1:
+        best = None
+        keys = list(fit.model.effects)
+        for key in progress(keys, "simplify") if progress else keys:
+            for by, reduced, cand in _alternatives(fit, key, scales):
+                at = {**sim, "substeps": fit.substeps}
+                try:
+                    f = (polish(reduced, train, at, opts["lm_steps"], opts["box_factor"]) if cand is None else
+                         fit_candidate(cand, reduced, train, at, opts["lm_steps"], opts["box_factor"]))
+                except (ValueError, RuntimeError):
+                    continue
+                if f is None:
+                    continue
+                f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
+                if not f_ic < ic or (best is not None and f_ic >= best[2]):
+                    continue
+                f_val = rmse_of(f.model, scored, {**sim, "substeps": f.substeps})
+                if f_val <= (1 + opts["margin"] / 2) * val_rmse:
+                    best = (key, by, f_ic, f_val, f)
+        if best is None:
+            break
+        key, by, ic, new_val, f = best
+        changes.append({"effect": fit.model.effects[key].name, "key": key, "kind": "replaced" if by else "removed",
+                        "by": list(by), "val_rmse_before": val_rmse, "val_rmse_after": new_val,
+                        "train_rmse": math.sqrt(f.sse / n_train)})
+        fit, val_rmse = f, new_val
+    return fit, ic, val_rmse, changes
