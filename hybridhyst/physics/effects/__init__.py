@@ -17,6 +17,7 @@ from .dahl import Dahl as Dahl
 from .inertia import Inertia as Inertia
 from .linear_stiffness import LinearStiffness as LinearStiffness
 from .lugre import LuGre as LuGre
+from .maxwell import Maxwell as Maxwell
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
 from .travel_drift import TravelDrift as TravelDrift
@@ -35,6 +36,7 @@ EFFECTS: dict[str, type[Effect]] = {
         BoucWenNormalised,
         Dahl,
         LuGre,
+        Maxwell,
         Backlash,
         Clearance,
         Inertia,
@@ -60,6 +62,7 @@ __all__ = [
     "Kinematics",
     "LinearStiffness",
     "LuGre",
+    "Maxwell",
     "Stribeck",
     "TimeDelay",
     "TravelDrift",

@@ -1,0 +1,85 @@
+"""Selection that removes and swaps (``discover.selection.simplify``): a flexible effect that plays the part of a
+simpler one is replaced by it, and one that is needed is kept. Data from numpy (arctan sign), not the library."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from hybridhyst.data.records import Record
+from hybridhyst.discover.candidates import Scales
+from hybridhyst.discover.fitting import polish
+from hybridhyst.discover.loop import _rmse_of
+from hybridhyst.discover.selection import information_criterion, simplify
+from hybridhyst.physics.effects import Coulomb, LinearStiffness, Stribeck, Viscous
+from hybridhyst.physics.models import Constitutive
+
+SIM = {"backend": "reference", "method": "rk4", "substeps": 1}
+OPTS = {"lm_steps": 25, "box_factor": 10.0, "margin": 0.02, "criterion": "bic"}
+
+
+def _records(dFs: float, vs: float, seed: int = 0) -> list[Record]:
+    """F = 2x + 0.2v + (0.4 + dFs e^{-(v/vs)^2}) (2/π) arctan(v / 0.01), sines at 0.5 and 1 in, 1 Hz."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0, 1 / 100)
+        x, v = -amp * np.cos(2 * np.pi * t), 2 * np.pi * amp * np.sin(2 * np.pi * t)
+        level = 0.4 + dFs * np.exp(-((v / vs) ** 2))
+        y = 2 * x + 0.2 * v + level * (2 / np.pi) * np.arctan(v / 0.01) + 0.01 * rng.standard_normal(len(t))
+        out.append(Record(f"a{amp}", t, x, y, conditions={"amplitude_in": amp}))
+    return out
+
+
+def _stribeck_model(vs: float):
+    return Constitutive({"spring": LinearStiffness(k=1.5), "viscous": Viscous(c=0.1),
+                         "stribeck": Stribeck(dFs=0.3, vs=vs, v_s=0.01)}).double()
+
+
+def _simplify(records, model):
+    train = records
+    fit = polish(model, train, SIM, 25, 10.0)
+    n = sum(len(r) for r in train)
+    ic = information_criterion(fit.sse, n, fit.k, "bic")
+    val = _rmse_of(fit.model, train, SIM)
+    return simplify(fit, train, train, SIM, Scales.of(train), n, OPTS, ic, val, _rmse_of)
+
+
+@pytest.fixture(autouse=True)
+def _double():
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(old)
+
+
+def test_stribeck_playing_coulomb_is_replaced_by_coulomb():
+    fit, _, _, changes = _simplify(_records(0.0, 1.0), _stribeck_model(vs=30.0))
+    names = [e.name for e in fit.model.effects.values()]
+    assert [c["kind"] for c in changes] == ["replaced"] and changes[0]["by"] == ["coulomb"], changes
+    assert "stribeck" not in names and "coulomb" in names
+    fc = float(fit.model.effects["coulomb"].params["Fc"].value.detach())
+    assert math.isclose(fc, 0.4, rel_tol=0.05)
+
+
+def test_a_needed_stribeck_stays():
+    fit, _, _, changes = _simplify(_records(0.4, 1.0), _stribeck_model(vs=1.0))
+    assert changes == [] and "stribeck" in fit.model.effects
+
+
+def test_an_effect_whose_contribution_vanished_is_removed():
+    model = Constitutive({"spring": LinearStiffness(k=1.5), "viscous": Viscous(c=0.1),
+                          "coulomb": Coulomb(Fc=0.3, v_s=0.01, fixed=["v_s"]),
+                          "extra": Viscous(c=0.0)}).double()
+    fit, _, _, changes = _simplify(_records(0.0, 1.0), model)
+    assert [c["kind"] for c in changes] == ["removed"] and changes[0]["key"] in ("viscous", "extra")
+    assert len(fit.model.effects) == 3
+
+
+def test_special_cases_name_library_effects():
+    from hybridhyst.physics.effects import EFFECTS
+
+    for name, cls in EFFECTS.items():
+        for case in cls.special_cases:
+            assert case and all(n in EFFECTS and n != name for n in case), (name, case)
