@@ -13,12 +13,14 @@ from hybridhyst.physics.effects import (
     AsymmetricCoulomb,
     Attenuation,
     Backlash,
+    Clearance,
     Coulomb,
     CubicStiffness,
     Dahl,
     Inertia,
     LinearStiffness,
     LuGre,
+    Maxwell,
     Stribeck,
     TimeDelay,
     Viscous,
@@ -26,7 +28,8 @@ from hybridhyst.physics.effects import (
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
 from hybridhyst.simulate import simulate
 
-NEW_EFFECTS = (AsymmetricCoulomb, CubicStiffness, Dahl, LuGre, Stribeck, Backlash, Inertia, Attenuation, TimeDelay)
+NEW_EFFECTS = (AsymmetricCoulomb, CubicStiffness, Dahl, LuGre, Stribeck, Backlash, Inertia, Attenuation, TimeDelay,
+               Clearance, Maxwell)
 
 
 pytestmark = pytest.mark.usefixtures("float64")  # conftest: float64 default dtype, restored afterwards
@@ -56,7 +59,11 @@ def test_every_effect_is_registered_with_documented_specs():
         assert cls.equation and cls.source and cls.__doc__ and "Units" in cls.__doc__
         for pname, spec in cls.specs.items():
             assert spec.doc, f"{cls.name}.{pname} has no doc"
-            if spec.neutral == 0.0 and spec.constraint != "real":
+            if spec.neutral == 0.0 and spec.constraint == "bounded":
+                # a sigmoid-bounded parameter reaches an interior 0 exactly, with a gradient (clearance.a)
+                assert spec.bounds[0] < 0.0 < spec.bounds[1], f"{cls.name}.{pname}: neutral 0 on a bound"
+                assert float(cls(**{pname: 0.0}).evaluate(None, 1)[pname].detach()) == 0.0, f"{cls.name}.{pname}"
+            elif spec.neutral == 0.0 and spec.constraint != "real":
                 assert spec.constraint == "nonnegative", f"{cls.name}.{pname}: neutral 0 needs 'nonnegative'"
 
 
@@ -137,6 +144,112 @@ def test_lugre_without_stribeck_and_damping_is_dahl():
     assert torch.allclose(F_lugre, F_dahl, atol=1e-12)
     assert float(F_dahl.abs().max()) > 0.9  # saturated, so the test covers the nonlinear part
 
+
+def exact_clearance(x: np.ndarray, r: float, sigma0: float, Fc_pos: float, Fc_neg: float) -> np.ndarray:
+    """Force of a Dahl element behind a gap of half-width r along a path x (written independently): exact per
+    increment. q = gap opening + bristle deflection, q(0) = 0; moving in direction s, the deflection
+    z = q + s r (loaded against the motion) or q − s r (with it) relaxes in travel towards s L,
+    L = Fc_s / σ0, as z ← s L + (z − s L) e^(−travel / L); in between (|q| ≤ r) q follows x. An increment
+    that reaches a boundary (z = 0: the gap opens; |q| = r: it closes) is split there."""
+    q, out = 0.0, np.zeros_like(x)
+    for k in range(1, len(x)):
+        left = abs(x[k] - x[k - 1])
+        s = 1.0 if x[k] > x[k - 1] else -1.0
+        L = (Fc_pos if s > 0 else Fc_neg) / sigma0
+        while left > 0:
+            if s * q < -r:  # still loaded the other way: unload until z = 0, where the gap opens
+                z = q + s * r
+                to_open = L * math.log((s * L - z) / (s * L))
+                if to_open >= left:
+                    q, left = s * L + (z - s * L) * math.exp(-left / L) - s * r, 0.0
+                else:
+                    q, left = -s * r, left - to_open
+            elif s * q < r:  # crossing the gap: no force, q follows x
+                to_close = r - s * q
+                q, left = (q + s * left, 0.0) if to_close >= left else (s * r, left - to_close)
+            else:  # gap closed in the direction of motion: Dahl
+                z = q - s * r
+                q, left = s * L + (z - s * L) * math.exp(-left / L) + s * r, 0.0
+        out[k] = sigma0 * (q - min(max(q, -r), r))
+    return out
+
+
+def triangle(amplitude: float, dt: float):
+    """x: 0 → A → −A → A at unit speed, the reversals on samples; inputs (x, v) with the central-difference
+    velocity (0 on a reversal) and the path the library integrates along (the velocity is linear between
+    samples, so the state follows x0 + ∫v: on each reversal the peak is cut by dt/2)."""
+    t = np.arange(round(5 * amplitude / dt) + 1) * dt
+    x = np.interp(t, [0.0, amplitude, 3 * amplitude, 5 * amplitude], [0.0, amplitude, -amplitude, amplitude])
+    v = np.gradient(x, t)
+    path = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)]
+    inputs = torch.stack([torch.as_tensor(x), torch.as_tensor(v)], dim=-1)[None]
+    return torch.as_tensor(t), inputs, x, path
+
+
+@pytest.mark.parametrize("backend", ["reference", "fast"])
+def test_clearance_without_gap_or_asymmetry_is_dahl(backend):
+    t, x = sine(0.05, 1.0, 1.5, 5e-3)
+    dahl = Constitutive([Dahl(sigma0=200.0, Fc=1.0)])
+    clearance = Constitutive([Clearance(sigma0=200.0, Fc=1.0, a=0.0, r=0.0)])
+    F_dahl = respond(dahl, x[None], t=t, backend=backend)
+    F_clearance = respond(clearance, x[None], t=t, backend=backend)
+    assert float((F_clearance - F_dahl).abs().max()) <= 1e-12  # the same equations (rounding aside)
+    assert float(F_dahl.abs().max()) > 0.9  # saturated, so the test covers the nonlinear part
+    # r and a at their neutral 0 still get a gradient (discovery grows the clearance from Dahl)
+    effect = clearance.effects["clearance"]
+    y = simulate(clearance, x[None], t=t, backend=backend)
+    grads = torch.autograd.grad(y.square().sum(), [raw(effect, "r"), raw(effect, "a")])
+    assert all(torch.isfinite(g) and g != 0 for g in grads), grads
+
+
+@pytest.mark.parametrize("backend", ["reference", "fast"])
+def test_clearance_force_is_zero_across_the_gap(backend):
+    """Triangle input: the force saturates at Fc (1 + a) going up and −Fc (1 − a) going down; after each
+    reversal it unloads along Dahl's curve, is exactly 0 while the input crosses the gap (a travel of 2r),
+    then loads the other way. The whole response matches an exact path integration."""
+    r, sigma0, Fc, a, A, dt = 0.1, 20.0, 0.5, 0.2, 0.5, 1e-3
+    up, down = Fc * (1 + a), Fc * (1 - a)
+    t, inputs, x, path = triangle(A, dt)
+    F = respond(Constitutive([Clearance(sigma0=sigma0, Fc=Fc, a=a, r=r)]), inputs, t=t, backend=backend)[0].numpy()
+    np.testing.assert_allclose(F, exact_clearance(path, r, sigma0, up, down), atol=1e-5 * Fc)
+    assert F.max() == pytest.approx(up, rel=1e-9) and F.min() == pytest.approx(-down, rel=1e-9)
+    assert np.all(F[: round(r / dt)] == 0.0)  # the gap starts centred: no force until x = r
+    for k_rev, s, L_new in ((round(A / dt), -1.0, down / sigma0), (round(3 * A / dt), 1.0, up / sigma0)):
+        level = F[k_rev]  # saturated: +up at the top, −down at the bottom
+        # unloading: Dahl's exponential in travel towards the new direction's level (slope σ0 (1 + |F|/Fc_new))
+        opens = L_new * math.log(1 + abs(level) / (sigma0 * L_new))  # travel until the force is 0
+        travel = np.abs(x - x[k_rev])
+        unloading = np.arange(k_rev + 1, k_rev + round(opens / dt) - 1)
+        along = np.abs(path[unloading] - path[k_rev])  # the travel the library integrates (see ``triangle``)
+        expected = sigma0 * (s * L_new + (level / sigma0 - s * L_new) * np.exp(-along / L_new))
+        np.testing.assert_allclose(F[unloading], expected, atol=1e-5 * Fc)
+        # then exactly zero over an input travel of 2r
+        window = np.arange(k_rev, k_rev + round((opens + 2 * r + 0.05) / dt))
+        zero = window[F[window] == 0.0]
+        assert np.all(np.diff(zero) == 1)  # one plateau
+        assert travel[zero[0]] == pytest.approx(opens, abs=2 * dt)
+        assert travel[zero[-1]] - travel[zero[0]] == pytest.approx(2 * r, abs=2 * dt)
+        beyond = window[travel[window] > opens + 2 * r + 2 * dt]
+        assert np.all(s * F[beyond] > 0)  # loading the other way
+
+
+def test_maxwell_storage_stiffness_and_loss_under_a_sine():
+    """Steady state under x = A sin ωt: F = k' x + c' ẋ with the storage stiffness k' = k_m (ωτ)² / (1 + (ωτ)²)
+    and the loss coefficient c' = c_m / (1 + (ωτ)²), c_m = k_m τ (fitted on the last cycle, below, near and
+    above the corner frequency 1/τ)."""
+    k_m, tau, A, dt = 2.0, 0.1, 0.3, 1e-3
+    freqs = torch.tensor([0.5, 1.6, 5.0])
+    t = torch.arange(round(3.0 / dt) + 1) * dt  # 30 τ: the start-up transient (e^(−t/τ)) is gone
+    w = 2 * math.pi * freqs[:, None]
+    inputs = torch.stack([A * torch.sin(w * t), A * w * torch.cos(w * t)], dim=-1)
+    F = respond(Constitutive([Maxwell(k_m=k_m, tau=tau)]), inputs, t=t)
+    for i, f in enumerate(freqs.tolist()):
+        last = t > t[-1] - 1.0 / f
+        basis = inputs[i, last]  # columns x, ẋ
+        (k_fit, c_fit), *_ = np.linalg.lstsq(basis.numpy(), F[i, last].numpy(), rcond=None)
+        wt2 = (2 * math.pi * f * tau) ** 2
+        assert k_fit == pytest.approx(k_m * wt2 / (1 + wt2), rel=0.01), f
+        assert c_fit == pytest.approx(k_m * tau / (1 + wt2), rel=0.01), f
 
 # -- input operators and structure modifiers ----------------------------------------------------------------
 def backlash_loop(r: float, downstream, dt: float = 2.5e-3):
@@ -250,6 +363,8 @@ ACTIVE = {
     "inertia": {"m": 0.5},
     "attenuation": {"xi": 0.7},
     "time_delay": {"tau": 0.013},
+    "clearance": {"sigma0": 25.0, "Fc": 0.5, "a": 0.2, "r": 0.02},
+    "maxwell": {"k_m": 2.0, "tau": 0.05},
 }
 
 
@@ -294,7 +409,7 @@ def test_every_parameter_gets_the_right_gradient(cls, structure):
     assert float((ends[0] - ends[1]) / (2 * step)) == pytest.approx(float(norm), rel=1e-6)
 
 
-NEUTRAL = (AsymmetricCoulomb, CubicStiffness, Stribeck, Backlash, Inertia, Attenuation, TimeDelay)
+NEUTRAL = (AsymmetricCoulomb, CubicStiffness, Stribeck, Backlash, Inertia, Attenuation, TimeDelay, Maxwell)
 
 
 @pytest.mark.parametrize("cls", NEUTRAL, ids=lambda c: c.name)

@@ -55,6 +55,7 @@ EFFECT_VALUES = {
     "attenuation": {"xi": 0.3}, "time_delay": {"tau": 0.013}, "travel_drift": {"dF": 0.4, "v_s": 0.2},
     "bouc_wen": {"alpha": 0.3, "k": 2.0, "k1": 0.1, "D": 1.2, "A": 1.0, "beta": 0.5, "gamma": 0.3, "n": 1.7},
     "bouc_wen_normalised": {"omega": 1.5, "xi": 0.1, "alpha": 0.3, "A": 1.0, "beta": 0.3, "gamma": 0.5, "n": 1.48},
+    "clearance": {"sigma0": 5.0, "Fc": 1.0, "a": 0.2, "r": 0.05}, "maxwell": {"k_m": 2.0, "tau": 0.1},
 }
 
 
@@ -75,6 +76,29 @@ def test_fast_path_equals_reference_for_every_effect(structure, float64):
     t = torch.arange(300) * 5e-3
     u = torch.sin(2 * math.pi * 1.3 * t) + 0.3 * torch.sin(2 * math.pi * 3.1 * t + 1.0)
     _assert_agree(model, u[None], t, substeps=2)
+
+
+# the newest effects alone (with a spring), at values that exercise every branch: the clearance's gap opens and
+# closes on each reversal and its bristle saturates both ways; the Maxwell element runs near its corner 1/τ
+ALONE = {
+    "clearance": {"sigma0": 20.0, "Fc": 0.5, "a": -0.3, "r": 0.1},
+    "maxwell": {"k_m": 2.0, "tau": 0.1},
+}
+
+
+@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
+@pytest.mark.parametrize("name", sorted(ALONE))
+def test_fast_path_equals_reference_for_the_newest_effects_alone(name, structure, float64):
+    effects = {name: EFFECTS[name](**ALONE[name]), "spring": EFFECTS["linear_stiffness"](k=2.0)}
+    if structure == "constitutive":
+        model = Constitutive(effects).double()
+        amp = 0.6
+    else:
+        model = DrivenOscillator(effects, mass=0.05).double()
+        amp = 1.5  # drive [F], near resonance (1 Hz): displacements of ±1.5 to ±2.7
+    t = torch.arange(400) * 5e-3
+    u = amp * (torch.sin(2 * math.pi * 1.1 * t) + 0.2 * torch.sin(2 * math.pi * 3.7 * t + 0.5))
+    _assert_agree(model, torch.stack([u, 0.7 * u]), t, substeps=2)
 
 
 @pytest.mark.parametrize("method", ["euler", "heun", "midpoint", "rk4"])

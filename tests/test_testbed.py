@@ -96,6 +96,43 @@ def test_dahl_exact_virgin_curve_and_steady_sliding():
     assert sigma0 * g.dahl_exact(back, sigma0, Fc)[-1] == pytest.approx(-Fc, rel=1e-9)
 
 
+def test_clearance_dahl_plateau_and_levels():
+    """Hand-checked shape on 0 → A → −A: no force until x = r, then Dahl's virgin curve shifted by r up to
+    Fc_pos; after the reversal Dahl's unloading towards −Fc_neg until the force is 0 (a travel
+    d₀ = ℓ₋ ln(1 + Fc_pos / Fc_neg), ℓ₋ = Fc_neg / σ0), exactly 0 over a travel of 2r (the gap), then the
+    virgin curve down to −Fc_neg. Exact per step: a coarse path gives the fine path's values."""
+    r, sigma0, Fc_pos, Fc_neg, A = 0.06, 15.0, 0.5, 0.7, 1.0
+    lp, ln_ = Fc_pos / sigma0, Fc_neg / sigma0
+    up = np.linspace(0.0, A, 20001)
+    down = np.linspace(A, -A, 40001)[1:]
+    x = np.r_[up, down]
+    F = g.clearance_dahl(x, r, sigma0, Fc_pos, Fc_neg)
+    Fu, Fd = F[: len(up)], F[len(up):]
+    assert np.all(Fu[up <= r] == 0.0)  # the gap starts centred
+    np.testing.assert_allclose(Fu[up > r], Fc_pos * (1 - np.exp(-(up[up > r] - r) / lp)), rtol=1e-12, atol=1e-14)
+    assert Fu[-1] == pytest.approx(Fc_pos, rel=1e-9)  # saturated before the reversal
+    d = A - down  # travel since the reversal
+    d0 = ln_ * math.log(1 + Fc_pos / Fc_neg)
+    assert d0 == pytest.approx(0.02515, abs=1e-5)  # by hand: (0.7/15) ln(12/7) = 0.04667 × 0.5390
+    unload = d < d0
+    np.testing.assert_allclose(Fd[unload], sigma0 * (-ln_ + (Fu[-1] / sigma0 + ln_) * np.exp(-d[unload] / ln_)),
+                               rtol=1e-10, atol=1e-13)
+    assert np.all(Fd[unload] > 0)
+    gap = (d >= d0 + 1e-9) & (d <= d0 + 2 * r - 1e-9)
+    assert np.all(Fd[gap] == 0.0)  # exactly no force while the input crosses the gap
+    assert np.count_nonzero(Fd == 0.0) == pytest.approx(2 * r / (2 * A / 40000), abs=2)  # plateau width 2r
+    after = d > d0 + 2 * r
+    np.testing.assert_allclose(Fd[after], -Fc_neg * (1 - np.exp(-(d[after] - d0 - 2 * r) / ln_)), rtol=1e-9,
+                               atol=1e-12)
+    assert Fd[-1] == pytest.approx(-Fc_neg, rel=1e-9)
+    coarse = np.r_[np.linspace(0, A, 21), np.linspace(A, -A, 41)[1:]]  # every 1000th / 1000th point of x
+    np.testing.assert_allclose(g.clearance_dahl(coarse, r, sigma0, Fc_pos, Fc_neg), F[::1000], rtol=1e-9,
+                               atol=1e-12)
+    # r = 0 and equal levels is Dahl
+    y = g.sine(0.8, 1.0).x(np.linspace(0, 2, 2001))
+    np.testing.assert_allclose(g.clearance_dahl(y, 0.0, 8.0, 0.6, 0.6), 8.0 * g.dahl_exact(y, 8.0, 0.6), rtol=1e-10,
+                               atol=1e-13)
+
 def test_dahl_exact_matches_an_ode_solver():
     sigma0, Fc = 10.0, 0.5
     t = np.linspace(0, 2, 2001)
@@ -205,7 +242,7 @@ def test_noise_sd_and_lag1_correlation():
 
 
 FAMILIES = {"viscous", "coulomb", "asymmetric_coulomb", "stribeck", "linear_stiffness", "cubic_stiffness", "bouc_wen",
-            "dahl", "lugre", "backlash", "inertia", "attenuation", "time_delay", "travel_drift"}
+            "dahl", "lugre", "backlash", "inertia", "attenuation", "time_delay", "travel_drift", "maxwell", "clearance"}
 
 
 def test_case_list_sanity():
@@ -216,8 +253,8 @@ def test_case_list_sanity():
     assert len({c.name for c in CASES}) == len(CASES)
     counts = Counter(c.category for c in CASES)
     assert set(counts) <= set(CATEGORIES)
-    assert counts["single"] >= 14 and counts["pair"] >= 4 and counts["condition"] >= 3 and counts["clean"] >= 3
-    assert counts["out_of_library"] >= 1
+    assert counts["single"] >= 16 and counts["pair"] >= 4 and counts["condition"] >= 3 and counts["clean"] >= 3
+    assert counts["out_of_library"] >= 2
     singles = [c for c in CASES if c.category == "single"]
     assert FAMILIES <= {n for c in singles for fam in c.expected for n in fam}
     for c in CASES:
@@ -268,7 +305,7 @@ def _report(named, params=None, trends=(), flagged=None, after=0.031):
     steps += [{"effect": n, "kind": "condition", "new_coordinates": {}} for n in trends]
     unexplained = {} if flagged is None else {"structure_flagged": flagged}
     return {"before": {"test_rmse": 1.0}, "after": {"test_rmse": after, "parameters": params or {}},
-            "steps": steps, "unexplained": unexplained}
+            "steps": steps, "effects": {"added": list(named), "dropped": []}, "unexplained": unexplained}
 
 
 def test_score_rules():

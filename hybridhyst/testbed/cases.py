@@ -10,8 +10,8 @@ Every case is a ``Case``; ``CASES`` lists them, ``CASE_BY_NAME`` finds one. Cate
   with parameters rising with the underpressure (linearly or exponentially) plus one missing effect; the
   nominal is ``vpptd_algebraic`` with constant parameters;
 * ``clean``: the nominal is the truth's structure: nothing may be added;
-* ``out_of_library``: an effect the library does not have (cogging, a Maxwell element): nothing may be
-  named, and the loop should flag structure it cannot name.
+* ``out_of_library``: an effect the library does not have (cogging, friction whose level varies with
+  position): nothing may be named, and the loop should flag structure it cannot name.
 
 Aliases (an expected family with more than one acceptable library name), kept to exact special cases:
 
@@ -235,6 +235,26 @@ def _lugre_law(k, c, **lugre):
     return law
 
 
+def _clearance_law(k, c, r, sigma0, Fc_pos, Fc_neg):
+    """k x + c v + a Dahl element behind a gap of half-width r (exact per step on the refined path)."""
+
+    def fine(tf, sig):
+        x = sig.x(tf)
+        return k * x + c * sig.v(tf) + g.clearance_dahl(x, r, sigma0, Fc_pos, Fc_neg)
+
+    return fine
+
+
+def _rough_law(k, c, Fc, depth, period, sign="arctan", width=0.01):
+    """k x + c v + Fc (1 + depth cos(2π x / period)) sgn(v): a sliding level that varies along the stroke."""
+
+    def law(t, sig):
+        x, v = sig.x(t), sig.v(t)
+        return k * x + c * v + Fc * (1 + depth * np.cos(2 * math.pi * x / period)) * g.sgn(v, sign, width)
+
+    return law
+
+
 def _maxwell_law(k, c, km, cm):
     def fine(tf, sig):
         v = sig.v(tf)
@@ -398,6 +418,21 @@ def _build_cases() -> list[Case]:
                                     noise=0.03, seed=14, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "2x + 0.2v + (0.4 + 0.04 s) arctan sign, s = travel; nominal spring + viscous + Coulomb", "100"))
+    add(_case("maxwell", "single", [{"maxwell"}], [("maxwell.k_m", 2.0, 0.15), ("maxwell.tau", 0.1, 0.15)], 0.03,
+              lambda: _sine_records("maxwell", FREQS, _maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2,
+                                    noise=0.03, phi=0.5, seed=52, refine=10),
+              lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), FREQ_SPLIT,
+              "1.5x + 0.1v + Maxwell (k_m 2 in series with c_m 0.2, τ 0.1 s; exact exponential integrator); "
+              "nominal spring + viscous", "100", "AR(1) 0.5"))
+    # levels 0.5 (v > 0) and 0.7 (v < 0): the library's Fc (1 ± a) with Fc 0.6, a = −1/6
+    add(_case("clearance", "single", [{"clearance"}], [("clearance.r", 0.06, 0.20)], 0.03,
+              lambda: _sine_records("clearance", STD, _clearance_law(2.0, 0.3, r=0.06, sigma0=15.0, Fc_pos=0.5,
+                                                                     Fc_neg=0.7),
+                                    spc=150, cycles=2, noise=0.03, seed=15, refine=20),
+              lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2),
+                               "dahl": {"effect": "dahl", "sigma0": 10.0, "Fc": 0.5}}), STD_SPLIT,
+              "2x + 0.3v + Dahl σ0 15 behind a clearance r 0.06 in, levels 0.5 (v > 0) / 0.7 (v < 0) (exact per "
+              "step, split at the gap); nominal spring + viscous + Dahl", "150"))
     # ---------------------------------------------------------------- pair
     add(_case("backlash+coulomb", "pair", [{"backlash"}, COULOMB],
               [("backlash.r", 0.08, 0.20), ("coulomb.Fc", 0.4, 0.15)], 0.03,
@@ -472,12 +507,12 @@ def _build_cases() -> list[Case]:
                                     spc=200, cycles=1.5, noise=0.03, seed=51),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
               "2x + 0.3v + 0.4 arctan sign + 0.25 sin(2πx / 0.35 in); nominal spring + viscous + Coulomb", "200"))
-    add(_case("maxwell", "out_of_library", [], [], 0.03,
-              lambda: _sine_records("maxwell", FREQS, _maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2,
-                                    noise=0.03, phi=0.5, seed=52, refine=10),
-              lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), FREQ_SPLIT,
-              "1.5x + 0.1v + Maxwell (k_m 2 in series with c_m 0.2, τ 0.1 s; exact exponential integrator)",
-              "100", "AR(1) 0.5"))
+    add(_case("rough_patch", "out_of_library", [], [], 0.03,
+              lambda: _sine_records("rough_patch", STD, _rough_law(2.0, 0.3, Fc=0.4, depth=0.6, period=0.8),
+                                    spc=200, cycles=1.5, noise=0.03, seed=53),
+              lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
+              "2x + 0.3v + 0.4 (1 + 0.6 cos(2πx / 0.8 in)) arctan sign: a friction level varying along the stroke; "
+              "nominal spring + viscous + Coulomb", "200"))
     return cases
 
 

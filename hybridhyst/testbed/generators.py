@@ -8,7 +8,8 @@ with numerics the library does not use, so that the discovery loop is judged on 
 * sign functions are exact (``np.sign``) or smoothed by arctan, erf or v/√(v² + δ²), never tanh;
 * the play operator is the exact discrete one, y_k = clamp(y_{k-1}, x_k − r, x_k + r), on an input
   refined many times between samples;
-* Dahl friction is integrated exactly in displacement (it is rate-independent: piecewise exponential);
+* Dahl friction is integrated exactly in displacement (it is rate-independent: piecewise exponential),
+  also behind a clearance (a gap in series: the increment split where the gap opens or closes);
 * Maxwell elements and other linear lags use an exact exponential integrator (first-order hold);
 * other states (LuGre, Bouc–Wen, oscillators) use ``scipy.integrate.solve_ivp`` (LSODA, Radau or
   DOP853 with tight tolerances and a step limit of a tenth of the sample interval), or ``heun``, a
@@ -29,7 +30,8 @@ from scipy.integrate import solve_ivp
 from scipy.special import erf
 
 __all__ = [
-    "Sines", "ar1_noise", "bouc_wen_yield", "cogging", "cumulative_travel", "dahl_exact", "fine_grid", "heun",
+    "Sines", "ar1_noise", "bouc_wen_yield", "clearance_dahl", "cogging", "cumulative_travel", "dahl_exact", "fine_grid",
+    "heun",
     "integrate", "linear_lag", "lugre", "maxwell_force", "multisine", "oscillator", "play", "play_rate", "sgn",
     "sine", "stribeck_curve", "white_noise",
 ]
@@ -186,6 +188,58 @@ def dahl_exact(x, sigma0: float, Fc: float, z0: float = 0.0) -> np.ndarray:
         prev = target + (prev - target) * decay[k - 1]
         z[k] = prev
     return z
+
+
+def clearance_dahl(x_fine, r: float, sigma0: float, Fc_pos: float, Fc_neg: float) -> np.ndarray:
+    """Force of a Dahl friction element driven through a clearance (a gap of half-width r in series), exactly
+    along a displacement path (apply it on a refined one: reversals inside a step are then negligible).
+
+    The state q is the gap opening plus the bristle deflection, q = 0 at the first point (the gap centred,
+    no load); the force is σ0 (q − clamp(q, −r, r)). Along a monotone step of direction s (±1), with the
+    level Fc_s of that direction (``Fc_pos`` for s = +1, ``Fc_neg`` for s = −1) and ℓ = Fc_s / σ0:
+
+    * gap closed behind the motion (s q < −r, force against the motion): the deflection z = q + s r relaxes
+      towards s ℓ, z ← s ℓ + (z − s ℓ) e^(−σ0 |Δx| / Fc_s), until z = 0 (after a travel ℓ ln(1 + |z| / ℓ)):
+      the gap opens;
+    * gap open (|q| ≤ r, no force): q moves with x until s q = r (a travel r − s q): the gap closes;
+    * gap closed ahead (s q ≥ r): the deflection z = q − s r relaxes as above towards s ℓ (it never
+      crosses 0 in this direction).
+
+    A step that reaches a boundary is split there, so every step is exact. The force saturates at
+    ``Fc_pos`` going up and at −``Fc_neg`` going down; after a reversal it unloads along Dahl's curve,
+    stays exactly 0 while the input crosses the gap (a travel of 2r) and then loads the other way."""
+    x = np.asarray(x_fine, float)
+    force = np.zeros_like(x)
+    q = 0.0
+    for k in range(1, len(x)):
+        step = x[k] - x[k - 1]
+        if step == 0.0:
+            force[k] = force[k - 1]
+            continue
+        s = 1.0 if step > 0 else -1.0
+        ell = (Fc_pos if s > 0 else Fc_neg) / sigma0
+        rest = abs(step)
+        while rest > 0.0:
+            if s * q < -r:  # still pushing against the motion: unload towards s ℓ
+                z = q + s * r
+                to_open = ell * math.log1p(abs(z) / ell)
+                if rest < to_open:
+                    z = s * ell + (z - s * ell) * math.exp(-rest / ell)
+                    q, rest = z - s * r, 0.0
+                else:
+                    q, rest = -s * r, rest - to_open
+            elif s * q < r:  # in the gap: no force, q follows x
+                to_close = r - s * q
+                if rest < to_close:
+                    q, rest = q + s * rest, 0.0
+                else:
+                    q, rest = s * r, rest - to_close
+            else:  # gap closed ahead: Dahl
+                z = q - s * r
+                z = s * ell + (z - s * ell) * math.exp(-rest / ell)
+                q, rest = z + s * r, 0.0
+        force[k] = sigma0 * (q - min(max(q, -r), r))
+    return force
 
 
 def cumulative_travel(x) -> np.ndarray:
