@@ -12,13 +12,9 @@ from hybridhyst.physics.effects import EFFECTS, Coulomb, Viscous
 from hybridhyst.physics.models import Constitutive
 from hybridhyst.simulate import simulate
 
+pytestmark = pytest.mark.usefixtures("float64")  # tests/conftest.py
 
-@pytest.fixture(autouse=True)
-def _float64():
-    old = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(old)
+
 
 
 def _sine_records(model, amplitudes=(0.5, 1.5), f=1.0, n=64, cycles=2):

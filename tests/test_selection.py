@@ -5,7 +5,6 @@ import math
 
 import numpy as np
 import pytest
-import torch
 
 from hybridhyst.data.records import Record
 from hybridhyst.discover.candidates import Scales
@@ -17,6 +16,8 @@ from hybridhyst.physics.models import Constitutive
 
 SIM = {"backend": "reference", "method": "rk4", "substeps": 1}
 OPTS = {"lm_steps": 25, "box_factor": 10.0, "margin": 0.02, "criterion": "bic"}
+
+pytestmark = pytest.mark.usefixtures("float64")  # tests/conftest.py
 
 
 def _records(dFs: float, vs: float, seed: int = 0) -> list[Record]:
@@ -46,12 +47,6 @@ def _simplify(records, model):
     return simplify(fit, train, train, SIM, Scales.of(train), n, OPTS, ic, val, _rmse_of)
 
 
-@pytest.fixture(autouse=True)
-def _double():
-    old = torch.get_default_dtype()
-    torch.set_default_dtype(torch.float64)
-    yield
-    torch.set_default_dtype(old)
 
 
 def test_stribeck_playing_coulomb_is_replaced_by_coulomb():

@@ -114,37 +114,36 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         if name == "attenuation" and not isinstance(model, DrivenOscillator):
             continue  # F = ξ|x|u needs a separate input u; on a damper law it is a cubic-like stiffness
         key = name if name not in model.effects else f"{name}_added"
-        bounds, low, high = {}, {}, {}
+        bounds, low, high, amplitudes = {}, {}, {}, set()
         hints = getattr(cls, "discovery_units", {})
         held = dict(getattr(cls, "discovery_fixed", {}))
         free = {p: spec for p, spec in cls.specs.items() if p not in held}
         for pname, spec in free.items():
             scale = scales.of_unit(hints.get(pname, spec.unit))
-            amplitude = spec.neutral is not None or spec.unit == "F"
+            if spec.neutral is not None or spec.unit == "F":
+                amplitudes.add(pname)
             if scale is None:
                 a = b = float(spec.default)
-            elif amplitude:
+            elif pname in amplitudes:
                 a, b = 0.05 * scale, 0.3 * scale
             else:
                 a, b = scale, 10.0 * scale
             lo, hi = _interval(spec, scale, a)
             a, b = min(max(a, lo), hi), min(max(b, lo), hi)
             bounds[f"{key}.{pname}"], low[pname], high[pname] = (lo, hi), a, b
-        starts = [{f"{key}.{p}": v for p, v in low.items()}, {f"{key}.{p}": v for p, v in high.items()}]
-        mixed = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else low[p])
-                 for p, spec in free.items()}
-        starts.append(mixed)
-        # shape parameters well below their scale (a sign smoothing width, a Stribeck speed): an exact sign in
-        # the data needs a width far below the velocity scale, a basin the scale-sized starts do not reach
-        sharp = {f"{key}.{p}": (high[p] if spec.neutral is not None or spec.unit == "F" else
-                                min(max(0.01 * low[p], bounds[f"{key}.{p}"][0]), bounds[f"{key}.{p}"][1]))
-                 for p, spec in free.items()}
-        if sharp != mixed:
-            starts.append(sharp)
+
+        def start(values, key=key, bounds=bounds):  # {parameter: value} -> {coordinate: value in its bounds}
+            return {f"{key}.{p}": min(max(float(v), bounds[f"{key}.{p}"][0]), bounds[f"{key}.{p}"][1])
+                    for p, v in values.items()}
+
+        mixed = {p: high[p] if p in amplitudes else low[p] for p in free}
+        # shape parameters also well below their scale (a sign smoothing width, a Stribeck speed): an exact sign
+        # in the data needs a width far below the velocity scale, a basin the scale-sized starts do not reach
+        sharp = {p: high[p] if p in amplitudes else 0.01 * low[p] for p in free}
+        starts = [start(low), start(high), start(mixed)] + ([start(sharp)] if start(sharp) != start(mixed) else [])
         neutral = {p: spec.neutral for p, spec in free.items() if spec.neutral is not None}
         if neutral:  # the fitted model itself: a candidate's refit can only improve on it
-            starts.append({f"{key}.{p}": min(max(float(neutral.get(p, low[p])), bounds[f"{key}.{p}"][0]),
-                                             bounds[f"{key}.{p}"][1]) for p in free})
+            starts.append(start({p: neutral.get(p, low[p]) for p in free}))
 
         def build(m, key=key, cls=cls, start=starts[0], held=held):
             values = {k.split(".", 1)[1]: v for k, v in start.items()}

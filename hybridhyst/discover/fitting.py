@@ -14,7 +14,7 @@ from ..identify.identify import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace
 
-__all__ = ["Fit", "fit_candidate", "polish", "search_points", "sse_at"]
+__all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
 RESOLVED = 0.02  # relative change of the SSE under halved steps below which a fit counts as resolved
@@ -29,6 +29,11 @@ class Fit:
     k: int
     coords: dict = field(default_factory=dict)
     substeps: int = 1
+
+
+def at(sim: dict, fit: Fit) -> dict:
+    """Simulator settings for a fitted model (its own sub-steps per sample)."""
+    return {**sim, "substeps": fit.substeps}
 
 
 def _problem(space, train, sim, substeps):

@@ -29,7 +29,8 @@ from ..physics.models import conditions_used
 from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
-from .fitting import Fit, fit_candidate, polish, sse_at
+from .fitting import at as _at
+from .fitting import fit_candidate, polish, sse_at
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
 
@@ -104,11 +105,6 @@ def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
 
 def _rmse_of(model, records, sim) -> float:
     return _metrics(records, _predict(model, records, sim)).get("rmse", math.inf) if records else math.inf
-
-
-def _at(sim: dict, fit: Fit) -> dict:
-    """Simulator settings for a fitted model (its own sub-steps per sample)."""
-    return {**sim, "substeps": fit.substeps}
 
 
 def _parameters(model) -> dict:
@@ -264,7 +260,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                                            (lambda items, what: _progress(items, progress, what)))
         for g in gone:
             g["after_step"] = len(steps)
-            tried.add(g["effect"])  # not offered again (nor what it was simplified from)
+            tried.add(g["effect"])  # a removed or replaced effect is not offered again
         removed += gone
     model = fit.model
     preds_after, after = evaluate(model, _at(sim, fit))

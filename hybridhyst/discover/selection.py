@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import math
 
-from ..physics.effects import EFFECTS
 from .candidates import Candidate, effect_candidates
-from .fitting import Fit, fit_candidate, polish
+from .fitting import Fit, at, fit_candidate, polish
 
 __all__ = ["combined", "information_criterion", "simplify"]
 
@@ -41,15 +40,16 @@ def combined(candidates: list[Candidate]) -> Candidate:
 
 
 def _alternatives(fit: Fit, key: str, scales):
-    """(names put in its place, builder) for each way to simplify effect ``key``: removal, then each of its
-    special cases whose effects are not in the model already (those present stay and absorb it)."""
+    """``(effects put in its place, model without it, candidate adding them or None)`` for each way to
+    simplify effect ``key``: removal, then each of its special cases, less the effects the model already has
+    (those stay and absorb it; a case they cover entirely is the removal)."""
     effect = fit.model.effects[key]
     reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
     yield (), reduced, None
     present = {e.name for e in reduced.effects.values()}
-    for case in getattr(type(effect), "special_cases", ()):
-        new = [n for n in case if n not in present and n in EFFECTS]
-        if new and len(new) == len([n for n in case if n not in present]):
+    for case in type(effect).special_cases:
+        new = [n for n in case if n not in present]
+        if new:
             yield tuple(case), reduced, combined(effect_candidates(reduced, scales, new))
 
 
@@ -64,10 +64,9 @@ def simplify(fit: Fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, 
         keys = list(fit.model.effects)
         for key in progress(keys, "simplify") if progress else keys:
             for by, reduced, cand in _alternatives(fit, key, scales):
-                at = {**sim, "substeps": fit.substeps}
                 try:
-                    f = (polish(reduced, train, at, opts["lm_steps"], opts["box_factor"]) if cand is None else
-                         fit_candidate(cand, reduced, train, at, opts["lm_steps"], opts["box_factor"]))
+                    f = (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
+                         else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
                 except (ValueError, RuntimeError):
                     continue
                 if f is None:
@@ -75,7 +74,7 @@ def simplify(fit: Fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, 
                 f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
                 if not f_ic < ic or (best is not None and f_ic >= best[2]):
                     continue
-                f_val = rmse_of(f.model, scored, {**sim, "substeps": f.substeps})
+                f_val = rmse_of(f.model, scored, at(sim, f))
                 if f_val <= (1 + opts["margin"] / 2) * val_rmse:
                     best = (key, by, f_ic, f_val, f)
         if best is None:
