@@ -17,8 +17,9 @@ from ..physics.parameters import Constant, Linear
 __all__ = ["Candidate", "Scales", "condition_candidates", "effect_candidates", "library_candidates"]
 
 # Effects left out of the default candidate list: bouc_wen_normalised is seed 002's re-parametrisation of
-# bouc_wen (the same family twice would only split the evidence).
-EXCLUDED = {"bouc_wen_normalised"}
+# bouc_wen (the same family twice would only split the evidence); the neural effect names no physical effect
+# (the loop measures the structure left with its own residual network instead).
+EXCLUDED = {"bouc_wen_normalised", "neural"}
 
 
 @dataclass(frozen=True)
@@ -111,6 +112,8 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         cls = EFFECTS[name]
         if name in present or (names is None and name in EXCLUDED):
             continue
+        if not cls.specs:
+            raise ValueError(f"effect {name!r} has no physical parameters to identify; it cannot be a candidate")
         if name == "attenuation" and not isinstance(model, DrivenOscillator):
             continue  # F = ξ|x|u needs a separate input u; on a damper law it is a cubic-like stiffness
         key = name if name not in model.effects else f"{name}_added"

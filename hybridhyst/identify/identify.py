@@ -19,6 +19,7 @@ from torch import nn
 from ..data.batch import record_batches
 from ..data.records import Record, RecordSet
 from ..simulate import simulate
+from ..simulate.inputs import with_rates
 from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .gradient import _decimate_all
 from .refine import levenberg_marquardt
@@ -74,7 +75,8 @@ class RecordsProblem:
         self.space, self.records = space, list(records)
         self.sim = {"method": method, "substeps": int(substeps), "backend": backend}
         dtype = next(iter(space.model.parameters()), torch.zeros((), dtype=torch.float64)).dtype
-        self.groups = [(b.index, b.t, b.inputs, b.y, b.conditions)
+        # the input rates once (finite differences), not at every cost evaluation
+        self.groups = [(b.index, b.t, with_rates(b.inputs, b.t), b.y, b.conditions)
                        for b in record_batches(self.records, input_channels, dtype)]
         self.n_samples = sum(len(r) for r in self.records)
         self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])

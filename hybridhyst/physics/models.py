@@ -134,6 +134,20 @@ class NominalModel(nn.Module):
         new._init_layout(nn.ModuleDict({k: copy.deepcopy(e) for k, e in effects.items()}))
         return new
 
+    def augmented(self, effects) -> NominalModel:
+        """This model with ``effects`` (``{key: Effect}``) added after its own, sharing — not copying — its
+        effects and structure parameters: training the augmented model trains this one's parameters (a
+        hybrid with a network inside the dynamics keeps the nominal it started from as its physical part)."""
+        import copy
+
+        new = copy.copy(self)
+        new._parameters, new._buffers, new._modules = dict(self._parameters), dict(self._buffers), dict(self._modules)
+        clash = set(effects) & set(self.effects)
+        if clash:
+            raise ValueError(f"the model already has effect(s) {sorted(clash)}; add them under other keys")
+        new._init_layout(nn.ModuleDict({**self.effects, **effects}))
+        return new
+
     def _init_layout(self, effects: nn.ModuleDict) -> None:
         self.effects = _named_effects(effects)
         offsets, start = {}, self.base_state_dim
@@ -174,8 +188,10 @@ class NominalModel(nn.Module):
                 found = True
         return out if found else None
 
-    def _effects_pass(self, kin: Kinematics, state: torch.Tensor, P: Params, need_rates: bool):
-        """Go through the effects in order: total force, added mass and (optionally) state rates."""
+    def _effects_pass(self, kin: Kinematics, state: torch.Tensor, P: Params, need_rates: bool,
+                      forces: dict | None = None):
+        """Go through the effects in order: total force, added mass and (optionally) state rates; each
+        effect's own force goes into ``forces`` when given."""
         force = torch.zeros_like(kin.x)
         mass = None
         rates = []
@@ -188,13 +204,26 @@ class NominalModel(nn.Module):
             f = effect.force(p, kin, s)
             if f is not None:
                 force = force + f
+                if forces is not None:
+                    forces[key] = f
             m = effect.added_mass(p)
             if m is not None:
                 mass = m if mass is None else mass + m
             kin = effect.transform(p, kin, s)
         return force, mass, rates
 
+    def effect_forces(self, state: torch.Tensor, inp: InputSample, P: Params) -> dict[str, torch.Tensor]:
+        """Each effect's force ``(batch,)`` at the given states and inputs, ``{effect key: force}`` (effects
+        that add no force are absent): what every term contributes along a simulated trajectory."""
+        forces: dict[str, torch.Tensor] = {}
+        self._effects_pass(self.kinematics(state, inp), state, P, need_rates=False, forces=forces)
+        return forces
+
     # -- to be provided by the structure ----------------------------------------------------------
+    def kinematics(self, state: torch.Tensor, inp: InputSample) -> Kinematics:
+        """What the first effect sees at these states and inputs."""
+        raise NotImplementedError
+
     @property
     def output_dim(self) -> int:
         raise NotImplementedError
@@ -220,6 +249,9 @@ class Constitutive(NominalModel):
     @staticmethod
     def _kinematics(inp: InputSample) -> Kinematics:
         return Kinematics(x=inp.u, v=inp.du, u=inp.u, du=inp.du, a=inp.ddu)
+
+    def kinematics(self, state, inp):
+        return self._kinematics(inp)
 
     def derivative(self, state, inp, P):
         _, _, rates = self._effects_pass(self._kinematics(inp), state, P, need_rates=True)
@@ -274,6 +306,9 @@ class DrivenOscillator(NominalModel):
     @property
     def output_dim(self) -> int:
         return len(self.outputs)
+
+    def kinematics(self, state, inp):
+        return self._kinematics(state, inp)
 
     def _kinematics(self, state, inp):
         x, v = state[:, 0], state[:, 1]

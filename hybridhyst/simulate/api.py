@@ -103,7 +103,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     return_states : also return the states ``(batch, time, state_dim)`` (with ``backend="fast"`` as
         constants: no gradient flows through the returned states).
     backend : "reference" (the plain PyTorch loop) or "fast" (compiled numba loop with an exact discrete
-        adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``.
+        adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``. A
+        model holding a network (``NeuralEffect``) runs on the reference loop, batched, with either backend.
     values : parameter values per batch row, ``{effect: {parameter: (batch,)}}`` as returned by
         ``model.evaluate`` (the structure's under ``"structure"``); replaces the model's own values, so a
         population of parameter sets (identification) or restarts run as one batch.
@@ -135,6 +136,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
     if backend not in ("reference", "fast"):
         raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
+    if backend == "fast" and not all(getattr(e, "compiled", True) for e in model.effects.values()):
+        backend = "reference"  # a network (neural effect) is not compiled: the batched reference loop runs it
     if backend == "fast":
         if solver != "fixed":
             raise ValueError("backend='fast' runs the fixed-step solver only; use solver='fixed'")

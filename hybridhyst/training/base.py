@@ -16,7 +16,7 @@ from ..physics.models import DrivenOscillator
 from ..simulate import simulate
 from .losses import data_loss
 
-__all__ = ["SequenceModule", "NominalMixin", "InputSampleOf", "load_nominal_state"]
+__all__ = ["SequenceModule", "NominalMixin", "InputSampleOf", "load_nominal_state", "neural_scales"]
 
 _FEATURES = ("t", "u", "du", "ddu")
 
@@ -180,11 +180,12 @@ class NominalMixin:
         y0 = batch["y0"].to(self.dtype)
         return torch.where((batch["start"] > 0)[:, None], y0, torch.zeros_like(y0))
 
-    def simulate_nominal(self, batch, return_states: bool = False):
-        """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input."""
+    def simulate_nominal(self, batch, return_states: bool = False, model=None):
+        """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input; ``model``
+        simulates another model with the nominal's structure instead (a hybrid's augmented model)."""
         t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
         U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
-        res = simulate(self.nominal, U, t=t, conditions=self.conditions(batch),  # each row on its own time grid
+        res = simulate(self.nominal if model is None else model, U, t=t, conditions=self.conditions(batch),
                        initial_state=self._initial_state(batch), return_states=return_states, **self.sim)
         return (res[0][..., 0], res[1]) if return_states else res[..., 0]
 
@@ -245,6 +246,27 @@ class NominalMixin:
         if detach:
             P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in P.items()}
         return m, rows, P
+
+
+def neural_scales(nominal, norm: Normaliser) -> dict[str, float]:
+    """Scales of a network inside ``nominal``'s dynamics, from the training data's standard deviations: the
+    displacement and velocity the effects see, and a force. A damper law: the excitation, its rate and the
+    response. An oscillator: the response (or the input) as displacement, the input's characteristic angular
+    frequency ω = sd(u̇)/sd(u) for the velocity, the drive |g|·sd(u) (force drive) or m·sd(ü) (base motion)
+    for the force."""
+    sd = norm.sd
+    if not isinstance(nominal, DrivenOscillator):
+        return {"x": sd["u"], "v": sd["du"], "u": sd["u"], "du": sd["du"], "F": sd["y"]}
+    sx = sd["y"] if nominal.outputs[0] == "x" else sd["u"]
+    omega = sd["du"] / sd["u"]
+    try:
+        with torch.no_grad():
+            P = nominal.evaluate(None, 1)["structure"]
+        gain, mass = abs(float(P["drive_gain"][0].detach())), float(P["mass"][0].detach())
+    except (ValueError, KeyError, TypeError):  # structure parameters that are functions of a condition
+        gain, mass = 1.0, 1.0
+    force = gain * sd["u"] if nominal.excitation == "force" else mass * sd["ddu"]
+    return {"x": sx, "v": sx * omega, "u": sd["u"], "du": sd["du"], "F": max(force, 1e-300)}
 
 
 def InputSampleOf(rows):  # noqa: N802 - reads like the class it builds

@@ -20,10 +20,13 @@ import torch
 from torch.nn.utils import parametrize
 
 from ..nets import build_net
+from ..physics.effects import NeuralEffect
 from ..physics.models import DrivenOscillator
-from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond, load_nominal_state
+from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond, load_nominal_state, neural_scales
 from .baselines import LSTMModule, MLPModule, StdPINNModule
 from .losses import constant_values, hybrid_physics_residual, parameter_prior, taylor_inputs
+
+NEURAL = "neural"  # the key of the dynamics network among the augmented model's effects
 
 __all__ = ["HybridModule", "LSTMModule", "MLPModule", "MODULES", "PhysicsModule", "SequenceModule", "StdPINNModule",
            "load_nominal_state"]
@@ -81,34 +84,67 @@ class PhysicsModule(NominalMixin, SequenceModule):
 
 
 class HybridModule(NominalMixin, SequenceModule):
-    """Nominal physics plus a parallel residual branch: ``ŷ = y_nom + sd_y · N(features)``.
+    """Nominal physics plus a network, placed on the output or inside the dynamics.
+
+    * ``placement="output"``: a parallel residual branch, ``ŷ = y_nom + sd_y · N(features)`` (seed 003).
+    * ``placement="dynamics"``: a ``NeuralEffect`` inside the nominal's equations — a force ``F_N(x, v, z,
+      conditions)`` that enters the equation of motion (or the damper's force sum), with ``latent_states``
+      states ``ż = N_z(...)`` of its own — so the correction lives where the system's memory lives. The
+      nominal (``self.nominal``) stays the physical part: the augmented model shares its parameters.
+
+    Both start exactly at the nominal (the network's last layer is zero).
 
     Parameters
     ----------
     nominal : the nominal model; nominal_state : optional path to a ``model.pt`` state dict (e.g. written
         by ``hybridhyst-identify``) or a run directory holding one, loaded into ``nominal`` first.
     freeze_nominal : keep the nominal's parameters fixed (seed 003 trains the residual only).
-    residual : "mlp" (pointwise, last layer zero-initialised) or "lstm"; hidden : "4x128" etc.
-    activation : MLP activation (tanh as seed 003).
+    residual : "mlp" (pointwise, last layer zero-initialised) or "lstm" (output placement only); hidden :
+        "4x128" etc.; activation : MLP activation (tanh as seed 003).
+    placement : "output" or "dynamics"; latent_states : the dynamics network's latent states (≥ 0).
     """
 
     kind = "hybrid"
 
     def __init__(self, nominal, normaliser: dict, residual: str = "mlp", hidden="4x128", activation: str = "tanh",
                  freeze_nominal: bool = False, nominal_state: str | None = None, backend: str = "fast",
-                 method: str = "rk4", substeps: int = 1, **kw):
+                 method: str = "rk4", substeps: int = 1, placement: str = "output", latent_states: int = 0, **kw):
         super().__init__(normaliser, **kw)
+        if placement not in ("output", "dynamics"):
+            raise ValueError(f"unknown placement {placement!r}; choose 'output' or 'dynamics'")
+        if placement == "dynamics" and residual != "mlp":
+            raise ValueError("placement=dynamics evaluates the network at every instant inside the state equation: "
+                             f"use residual=mlp (latent_states give it memory), not {residual!r}")
+        if placement == "output" and int(latent_states):
+            raise ValueError("latent_states belong to placement=dynamics; the output branch has none")
+        self.placement, self.latent_states = placement, int(latent_states)
         if nominal_state:
             nominal.load_state_dict(load_nominal_state(nominal_state))
         self._setup_nominal(nominal, backend, method, substeps, trainable=not freeze_nominal)
         self.residual_kind = residual
+        if placement == "dynamics":
+            conditions = {c: (self.norm.mean[c], self.norm.sd[c]) for c in self.condition_names}
+            self.net = NeuralEffect(("x", "v"), self.latent_states, hidden, activation,
+                                    scales=neural_scales(nominal, self.norm), conditions=conditions)
+            self.__dict__["_augmented"] = nominal.augmented({NEURAL: self.net})  # not a submodule: its parameters
+            return  # are registered as the nominal's and the net's
         self.net = build_net(residual, self.n_features, 1, hidden, activation=activation, zero_last=True)
         if residual == "lstm" and self.lambda_phys > 0 and isinstance(nominal, DrivenOscillator):
             raise ValueError("the physics residual of an oscillator needs pointwise time derivatives of the "
                              "residual branch; use residual=mlp, or lambda_phys=0 with an LSTM branch")
 
+    @property
+    def model(self):
+        """The model that is simulated: the nominal, or the nominal augmented with the network."""
+        return self.__dict__.get("_augmented", self.nominal)
+
     def forward(self, batch):
         need_states = self.lambda_phys > 0 and self.training
+        if self.placement == "dynamics":
+            res = self.simulate_nominal(batch, return_states=need_states, model=self.model)
+            y, states = res if need_states else (res, None)
+            y_nom = None if self.training else self.simulate_nominal(batch)
+            return {"y": y, "nominal": y_nom, "states": states}
         res = self.simulate_nominal(batch, return_states=need_states)
         y_nom, states = res if need_states else (res, None)
         r = self.net(self.features(batch))[..., 0] * self.y_scale
@@ -128,6 +164,13 @@ class HybridModule(NominalMixin, SequenceModule):
         return tau, inp, self.net(feats)[:, 0, 0] * self.y_scale
 
     def physics_loss(self, batch, out):
+        if self.placement == "dynamics":  # the network's force is how far the hybrid departs from the nominal
+            m, rows, _ = self.flat(batch)
+            S = out["states"].reshape(-1, out["states"].shape[-1])[m].to(self.dtype)
+            cond = {k: v.repeat_interleave(batch["u"].shape[1])[m] for k, v in self.conditions(batch).items()}
+            P = self.model.evaluate(cond, S.shape[0])
+            force = self.model.effect_forces(S, InputSampleOf(rows), P)[NEURAL]
+            return (force / self.net.force_scale).square().mean()
         m, rows, P = self.flat(batch)
         S = out["states"].reshape(-1, out["states"].shape[-1])[m].to(self.dtype).detach()
         if self.residual_kind == "lstm":  # constitutive: the residual is the branch's own correction

@@ -18,6 +18,7 @@ from .inertia import Inertia as Inertia
 from .linear_stiffness import LinearStiffness as LinearStiffness
 from .lugre import LuGre as LuGre
 from .maxwell import Maxwell as Maxwell
+from .neural import NeuralEffect as NeuralEffect
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
 from .travel_drift import TravelDrift as TravelDrift
@@ -43,6 +44,7 @@ EFFECTS: dict[str, type[Effect]] = {
         Attenuation,
         TimeDelay,
         TravelDrift,
+        NeuralEffect,
     )
 }
 
@@ -63,6 +65,7 @@ __all__ = [
     "LinearStiffness",
     "LuGre",
     "Maxwell",
+    "NeuralEffect",
     "Stribeck",
     "TimeDelay",
     "TravelDrift",

@@ -130,6 +130,9 @@ class Effect(nn.Module):
     # simpler effect sets this effect contains as an exact special case or limit (e.g. Stribeck with vs → ∞ is
     # Coulomb): the discovery loop tries each in its place and keeps the simpler one when the data allow
     special_cases: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    # False for effects whose equations are not sympy-expressible (networks): the fast backend then runs the
+    # model on the batched reference loop
+    compiled: ClassVar[bool] = True
 
     def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
         super().__init__()

@@ -107,23 +107,43 @@ _MODULES: dict[str, object] = {}
 PARALLEL = os.environ.get("HYBRIDHYST_FAST_PARALLEL", "0") == "1"
 
 
+def _equations_key(eq: Equations) -> str:
+    """A hash of the equations themselves (cheap next to generating their source: CSE and Jacobians)."""
+    text = repr((eq.state, eq.inputs, eq.params, eq.rhs, eq.outputs, eq.lower, eq.upper, PARALLEL))
+    return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
 def compile_equations(eq: Equations):
-    """Import (compiling on first use) the generated module for these equations."""
-    src = generate_source(eq)
-    digest = hashlib.sha1(src.encode()).hexdigest()[:16]
-    if digest in _MODULES:
-        return _MODULES[digest]
+    """Import (compiling on first use) the generated module for these equations.
+
+    Generated sources are found again by the hash of the equations (an index file next to them), so a model
+    seen before — in this process or an earlier one — skips the source generation as well as the compile.
+    """
+    key = _equations_key(eq)
+    if key in _MODULES:
+        return _MODULES[key]
+    index = _cache_dir() / f"eq_{key}.txt"
+    digest = index.read_text().strip() if index.exists() else ""
     path = _cache_dir() / f"hh_fast_{digest}.py"
-    if not path.exists() or path.read_text() != src:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(src)
-        os.replace(tmp, path)
+    if not digest or not path.exists():
+        src = generate_source(eq)
+        digest = hashlib.sha1(src.encode()).hexdigest()[:16]
+        path = _cache_dir() / f"hh_fast_{digest}.py"
+        if not path.exists() or path.read_text() != src:
+            _write(path, src)
+        _write(index, digest)
     name = f"hybridhyst_fast_{digest}"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
-    _MODULES[digest] = module
+    _MODULES[key] = module
     return module
 
 

@@ -1,0 +1,133 @@
+"""Neural effect: a network as one term of a nominal model (a force, and optionally latent states).
+
+The network lives where the memory of a hysteretic system lives — inside the state equation — instead of
+being added to the model's output. In a ``DrivenOscillator`` its force enters the equation of motion
+(m ẍ + Σ F_e + F_N = g u), so it changes the trajectory; its latent states give it a memory of its own
+(a hysteretic state, a friction state) that a pointwise correction of the output cannot have.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
+import torch
+
+from ...nets import build_net
+from ..parameters import ParameterSpec
+from .base import Effect, Kinematics
+
+__all__ = ["NeuralEffect"]
+
+_INPUTS = ("x", "v", "u", "du")
+
+
+class NeuralEffect(Effect):
+    """A force ``F = s_F · N(x, v, z, c)`` with latent states ``ż = ω_s · N_z(x, v, z, c)``.
+
+    Inputs are normalised by the data's scales: x/s_x, v/s_v (and u/s_u, du/s_du when listed), each latent
+    state z (dimensionless, starts at 0) and each condition c as (c − mean)/sd. One MLP gives the force and
+    the latent rates; its last layer starts at zero, so a model with this effect starts exactly at its
+    nominal (F = 0, ż = 0) and training moves it from there.
+
+    Parameters
+    ----------
+    inputs : kinematic inputs among "x", "v" (what the effect acts on: the excitation of a ``Constitutive``
+        model, the relative or absolute coordinate of a ``DrivenOscillator``), "u", "du" (the raw input).
+    latent_states : number of latent states z (0: a memoryless force).
+    hidden, activation : MLP widths ("2x32" or a list) and activation.
+    scales : {"x", "v", "u", "du", "F": scale} in the model's units: s_F [F] sets the force unit, ω_s =
+        s_v / s_x [1/t] the latent states' rate unit. Missing ones are 1.
+    conditions : {name: (mean, sd)} of the operating conditions the network reads (empty: none).
+
+    Units: no physical parameters; the weights are trained (``hybridhyst-train placement=dynamics``) and
+    are not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
+    latent_states)``. The compiled fast path does not cover networks: ``simulate(backend="fast")`` runs a
+    model holding this effect on the batched reference loop (same values, exact autograd gradients).
+    Source: universal differential equations (Rackauckas et al., arXiv:2001.04385, 2020); model
+    augmentation (Beintema, Schoukens, Tóth, "Deep subspace encoders for nonlinear system identification",
+    Automatica 156, 2023).
+    """
+
+    name = "neural"
+    compiled = False
+    state_dim = 0
+    equation = "F = s_F N(x/s_x, v/s_v, z, c);  dz/dt = (s_v/s_x) N_z(x/s_x, v/s_v, z, c)"
+    source = "Rackauckas et al. 2020 (universal differential equations); Beintema et al. 2023"
+    specs: ClassVar[dict[str, ParameterSpec]] = {}
+
+    def __init__(self, inputs: Sequence[str] = ("x", "v"), latent_states: int = 0, hidden="2x32",
+                 activation: str = "tanh", scales: Mapping[str, float] | None = None,
+                 conditions: Mapping[str, Sequence[float]] | None = None):
+        super().__init__()
+        bad = [i for i in inputs if i not in _INPUTS]
+        if bad or not inputs:
+            raise ValueError(f"neural effect: unknown input(s) {bad}; choose from {_INPUTS}")
+        if int(latent_states) < 0:
+            raise ValueError(f"neural effect: latent_states must be >= 0, got {latent_states}")
+        scales = dict(scales or {})
+        unknown = set(scales) - {*_INPUTS, "F"}
+        if unknown:
+            raise ValueError(f"neural effect: unknown scale(s) {sorted(unknown)}; give x, v, u, du and F")
+        for key, value in scales.items():
+            if not float(value) > 0:
+                raise ValueError(f"neural effect: scale {key!r} must be > 0, got {value}")
+        self.inputs = tuple(inputs)
+        self.state_dim = int(latent_states)  # per instance: the model lays out its states from it
+        self.condition_names = tuple(conditions or {})
+        s = {k: float(scales.get(k, 1.0)) for k in (*_INPUTS, "F")}
+        self.register_buffer("input_scale", torch.tensor([s[k] for k in self.inputs], dtype=torch.float64))
+        self.register_buffer("force_scale", torch.tensor(s["F"], dtype=torch.float64))
+        self.register_buffer("rate_scale", torch.tensor(s["v"] / s["x"], dtype=torch.float64))
+        cond = [tuple(map(float, (conditions or {})[c])) for c in self.condition_names]
+        self.register_buffer("condition_mean", torch.tensor([c[0] for c in cond], dtype=torch.float64))
+        self.register_buffer("condition_sd", torch.tensor([c[1] if c[1] > 0 else 1.0 for c in cond],
+                                                          dtype=torch.float64))
+        n_in = len(self.inputs) + self.state_dim + len(self.condition_names)
+        self.net = build_net("mlp", n_in, 1 + self.state_dim, hidden, activation=activation, zero_last=True)
+        self._last: tuple | None = None
+
+    # conditions reach the force and rate like parameter values: normalised, one (batch,) tensor each
+    def evaluate(self, conditions, batch):
+        if not self.condition_names:
+            return {}
+        missing = [c for c in self.condition_names if not conditions or c not in conditions]
+        if missing:
+            raise ValueError(f"the neural effect reads condition(s) {missing}; give them to simulate (conditions=)")
+        return {f"@{c}": (conditions[c] - self.condition_mean[j]) / self.condition_sd[j]
+                for j, c in enumerate(self.condition_names)}
+
+    def describe(self, units=None):
+        return {}
+
+    def _outputs(self, p, kin: Kinematics, state):
+        """Network outputs ``(batch, 1 + latent)`` at one instant (cached for the rate-then-force pair)."""
+        last = self._last
+        if last is not None and last[0] is kin and last[1] is state:
+            return last[2]
+        if not isinstance(kin.x, torch.Tensor):
+            raise ValueError("the compiled fast path does not cover the neural effect; use the reference path")
+        channels = {"x": kin.x, "v": kin.v, "u": kin.u, "du": kin.du}
+        cols = [channels[k] / self.input_scale[j] for j, k in enumerate(self.inputs)]
+        cols += [state[:, j] for j in range(self.state_dim)]
+        for c in self.condition_names:
+            if f"@{c}" not in p:
+                raise ValueError(f"the neural effect reads condition {c!r}; simulate with conditions=, not values=")
+            cols.append(p[f"@{c}"])
+        feats = torch.stack(cols, dim=1)
+        out = self.net(feats.to(self.net.head.weight.dtype)).to(kin.x.dtype)
+        self._last = (kin, state, out)
+        return out
+
+    def initial_state(self, p, batch):
+        ref = self.force_scale
+        return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
+
+    def rate(self, p, kin: Kinematics, state):
+        return self.rate_scale * self._outputs(p, kin, state)[:, 1:]
+
+    def force(self, p, kin: Kinematics, state):
+        return self.force_scale * self._outputs(p, kin, state)[:, 0]
+
+    def extra_repr(self) -> str:
+        return f"inputs={self.inputs}, latent_states={self.state_dim}, conditions={self.condition_names}"
