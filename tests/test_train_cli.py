@@ -12,16 +12,18 @@ import sys
 from pathlib import Path
 
 import pytest
+import torch
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate as hydra_instantiate
 
 from hybridhyst.cli import train
 from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.nets import build_net
+from hybridhyst.physics.models import NominalModel, conditions_used
 
 CONF = Path(CONF_DIR)
 GROUPS = ["data", "model", "residual", "loss", "trainer", "logger", "baseline", "sweep", "experiment"]
-SMOKE = ["experiment=smoke", "logger=none"]
+SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none"]  # the identified start: test_train_convergence
 
 
 def _compose(overrides, hydra_cfg=False):
@@ -38,10 +40,15 @@ def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
     assert _options(group), f"conf/{group} is empty"
     for option in _options(group):
         cfg = _compose([f"{group}={option}", f"run_dir={tmp_path}"], hydra_cfg=group == "sweep")
-        if group == "model":
-            assert hydra_instantiate(cfg.model).state_dim >= 0
-        elif group == "residual":
-            assert build_net(cfg.residual.kind, 3, 1, cfg.residual.hidden, cfg.residual.activation)
+        if group == "model":  # a nominal model whose parameters evaluate to finite numbers
+            model = hydra_instantiate(cfg.model, _convert_="all").double()
+            assert isinstance(model, NominalModel) and model.parameter_table(), option
+            values = model.evaluate({c: torch.full((2,), 0.05) for c in conditions_used(model)}, 2)
+            assert values and all(torch.isfinite(v).all() for p in values.values() for v in p.values()), option
+        elif group == "residual":  # maps (batch, time, features) to (batch, time, 1), zero at the start
+            net = build_net(cfg.residual.kind, 3, 1, cfg.residual.hidden, cfg.residual.activation).double()
+            out = net(torch.randn(2, 7, 3, dtype=torch.float64))
+            assert out.shape == (2, 7, 1) and torch.count_nonzero(out) == 0, option
         elif group == "sweep":
             assert cfg.hydra.sweeper.params, f"sweep={option} sweeps nothing"
         elif group in ("trainer", "logger") and cfg.trainer.accelerator == "cpu":
@@ -53,7 +60,9 @@ def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
         elif group in ("baseline", "loss"):  # the module each builds, on the smoke data
             small = _compose([*SMOKE, f"{group}={option}", f"run_dir={tmp_path}"])
             dm = train.build_datamodule(small)
-            assert train.build_module(small, dm).kind == small.module
+            module = train.build_module(small, dm)
+            assert module.kind == small.module and module.n_parameters() > 0
+            assert train.info(small)["placement"] == (small.placement if small.module == "hybrid" else None)
     if group == "experiment":
         for option in _options(group):  # every training experiment's data and split are consistent
             cfg = _compose([f"experiment={option}"])

@@ -175,7 +175,8 @@ def train_config(kind: str, data_path: Path, nominal: dict, split: dict, o: dict
         "datamodule.window": int(o["window"]), "datamodule.warmup": int(o["warmup"]),
         "datamodule.stride": int(o["window"]), "datamodule.samples_per_cycle": None, "datamodule.downsample": 1,
         "datamodule.batch_size": int(o["batch_size"]), "datamodule.train_fraction": float(s["train_fraction"]),
-        "freeze_nominal": True, "simulation.substeps": int(o["substeps"]), "trainer.max_epochs": int(o["epochs"]),
+        "freeze_nominal": True, "nominal_init.method": "none",  # the nominal comes identified (model.params)
+        "simulation.substeps": int(o["substeps"]), "trainer.max_epochs": int(o["epochs"]),
         "trainer.lr": float(o["lr"]), "trainer.enable_progress_bar": False, "seed": int(s["seed"]),
         "predictions": False,
     }

@@ -11,9 +11,14 @@ from ..analysis.metrics import split_metrics
 __all__ = ["predict_split", "split_metrics", "predictions_frame"]
 
 
-def predict_split(module, dm, split: str) -> list[dict]:
+def predict_split(module, dm, split: str, nominal: bool = False) -> list[dict]:
     """Whole-record predictions of ``split`` ("train", "val" or "test"): one dict per record with its name,
-    condition label, t, x, y (measured), y_pred and y_nominal (None without a nominal model)."""
+    condition label, t, x, y (measured), y_pred and y_nominal (None without a nominal model).
+
+    ``nominal``: the module's nominal model alone (``simulate_nominal``; modules with a nominal model only):
+    y_pred = y_nominal = the nominal's response, whatever the module adds to it."""
+    if nominal and not hasattr(module, "simulate_nominal"):
+        raise ValueError(f"module {type(module).__name__} has no nominal model")
     if not len(dm.records(split)):
         return []
     was_training = module.training
@@ -24,12 +29,12 @@ def predict_split(module, dm, split: str) -> list[dict]:
             for i, (rec, label) in enumerate(zip(dm.records(split), dm.labels(split))):
                 batch = {k: v[None] for k, v in dm.whole(split)[i].items()}
                 batch = {k: v.to(module.device) for k, v in batch.items()}
-                res = module(batch)
-                nominal = res.get("nominal")
+                res = {"y": module.simulate_nominal(batch)} if nominal else module(batch)
+                y_nom = res["y"] if nominal else res.get("nominal")
                 out.append({"record": rec.name, "condition": label, "split": split,
                             "t": batch["t"][0].cpu().numpy(), "x": batch["u"][0].cpu().numpy(),
                             "y": batch["y"][0].cpu().numpy(), "y_pred": res["y"][0].cpu().numpy(),
-                            "y_nominal": None if nominal is None else nominal[0].cpu().numpy(),
+                            "y_nominal": None if y_nom is None else y_nom[0].cpu().numpy(),
                             "warmup": rec.warmup})
     finally:
         module.train(was_training)
