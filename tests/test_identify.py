@@ -232,3 +232,18 @@ def test_levenberg_marquardt_moves_only_free_coordinates():
     assert torch.allclose(res.X[:, 0], 1.0 + 0.5 * starts[:, 1], atol=1e-6)
     with pytest.raises(ValueError, match="no free coordinate"):
         levenberg_marquardt(residual_rows, box, starts, free=torch.tensor([False, False]), progress=False)
+
+
+def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
+    """A slope at 0 is searched within ± factor · |intercept| / max |condition| (not (-1, 1), which would miss
+    a parameter doubling over 0.01 ... 0.09 MPa: slope ~ 84 for c = 6.7)."""
+    from hybridhyst.identify.space import SearchSpace
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    model = vpptd_algebraic(c={"kind": "linear", "slope": 0.0, "intercept": 6.7, "condition": "pressure_mpa"}).double()
+    plain = {c.name: (c.lower, c.upper) for c in SearchSpace(model).coordinates}
+    scaled = {c.name: (c.lower, c.upper) for c in SearchSpace(model, condition_scales={"pressure_mpa": 0.09})
+              .coordinates}
+    assert plain["viscous.c.c1"] == (-1.0, 1.0)
+    assert scaled["viscous.c.c1"] == pytest.approx((-10 * 6.7 / 0.09, 10 * 6.7 / 0.09))
+    assert scaled["viscous.c.c0"] == plain["viscous.c.c0"]  # the constant term keeps the general rule

@@ -267,8 +267,13 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
               lbfgs_steps, lr, bounds, box_factor, noise_sd, target, seed, fisher, jacobian, progress, input_channels,
               ode_method, substeps, search_decimate, backend) -> IdentificationResult:
     start = time.perf_counter()
-    space = SearchSpace(model, bounds, factor=box_factor)
     records = _records(records)
+    scales = {}
+    for r in records:
+        for name, value in r.conditions.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                scales[name] = max(scales.get(name, 0.0), abs(float(value)))
+    space = SearchSpace(model, bounds, factor=box_factor, condition_scales=scales)
     problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
     coarse = problem
     if int(search_decimate) != 1:

@@ -16,7 +16,9 @@ v, ``(v / 10, 10 v)`` for v > 0, ``(10 v, v / 10)`` for v < 0 and ``(-1, 1)`` fo
 replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parameter itself (constants and
 per-condition levels; function coefficients have other units, so only the box applies). User overrides
 ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
-strictly positive and spans more than a factor 3 are searched on a log scale.
+strictly positive and spans more than a factor 3 are searched on a log scale. A polynomial's higher
+coefficient that starts at 0 (a trend in a condition not yet known) gets ``± factor · |c0| / s^i`` instead of
+(-1, 1), with s the largest |condition| in the data (``condition_scales``, which ``identify`` passes).
 """
 
 from __future__ import annotations
@@ -131,6 +133,19 @@ def _box(v: float, factor: float) -> tuple[float, float]:
     return -1.0, 1.0
 
 
+def _trend_box(fn, index, v: float, factor: float, condition_scales) -> tuple[float, float] | None:
+    """The box of a polynomial's higher coefficient that starts at 0 (a trend not yet known): a term that
+    changes the parameter by up to ``factor`` × its constant term over the condition's magnitude,
+    ``± factor · |c0| / s^i`` with s = max |condition| in the data; None (the general rule) otherwise."""
+    if not (isinstance(fn, Polynomial) and index and v == 0.0 and condition_scales):
+        return None
+    scale, c0 = condition_scales.get(fn.condition), float(fn.coeffs.detach()[0])
+    if not scale or c0 == 0.0:
+        return None
+    half = factor * abs(c0) / float(scale) ** index
+    return -half, half
+
+
 def _entries(fn, key: str, pname: str):
     """(name suffix, attr, index, current value, is a value of the parameter itself) of one function."""
     if isinstance(fn, Fixed):
@@ -161,7 +176,7 @@ class SearchSpace(Box):
     """
 
     def __init__(self, model: nn.Module, bounds: Mapping[str, tuple[float, float]] | None = None,
-                 factor: float = 10.0, free=None):
+                 factor: float = 10.0, free=None, condition_scales: Mapping[str, float] | None = None):
         self.model = model
         self.functions = {(k, n): fn for k, e in model.effects.items() for n, fn in e.params.items()}
         specs = {(k, n): e.param_specs[n] for k, e in model.effects.items() for n in e.params}
@@ -172,7 +187,10 @@ class SearchSpace(Box):
         for (key, pname), fn in self.functions.items():
             for suffix, attr, index, v, own in _entries(fn, key, pname):
                 name = f"{key}.{pname}{suffix}"
-                lo, hi = self._bounds(v, specs[(key, pname)] if own else None, factor, bounds.pop(name, None))
+                override = bounds.pop(name, None)
+                if override is None:
+                    override = _trend_box(fn, index, v, factor, condition_scales)
+                lo, hi = self._bounds(v, specs[(key, pname)] if own else None, factor, override)
                 unit = render_unit(specs[(key, pname)].unit, model.units) if own else ""
                 coords.append(Coordinate(name, key, pname, attr, index, v, lo, hi, unit))
         if bounds:
