@@ -219,7 +219,9 @@ def info(cfg: DictConfig) -> dict:
     """What identifies this run in a report (everything but the seed makes a configuration)."""
     kind = cfg.module
     uses_net = kind != "physics"
-    name = f"hybrid-{cfg.residual.kind}" if kind == "hybrid" else DISPLAY.get(kind, kind)
+    name = DISPLAY.get(kind, kind)
+    if kind == "hybrid":  # hybrid-mlp, hybrid-lstm (the output branch) or hybrid-dynamics (inside the equations)
+        name = "hybrid-dynamics" if cfg.get("placement") == "dynamics" else f"hybrid-{cfg.residual.kind}"
     model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
         if kind in ("physics", "hybrid", "std_pinn") else None
     return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,

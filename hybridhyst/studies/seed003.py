@@ -10,7 +10,9 @@ Protocol (seed 003 Secs. 3–4): differential evolution + Levenberg–Marquardt 
 identifies the nominal on training sweeps; the Hybrid-PINN is ``HybridModule`` (the identified, frozen
 nominal + a parallel tanh MLP residual with a zero-initialised last layer, data MSE + λ_phys × equation-of-
 motion residual) trained with Lightning through ``hybridhyst.cli.train``'s builders; the baselines are the
-data-only MLP and LSTM, the standard PINN and the identified nominal alone. Tables 1 (identified
+data-only MLP and LSTM, the standard PINN and the identified nominal alone; next to the parallel Hybrid-PINN, the
+in-the-loop hybrid (``placement: dynamics``: a small MLP force, with one latent state, inside the actuator's
+equation of motion, reading the drive frequency and amplitude). Tables 1 (identified
 parameters), 2 (residual architecture), 3 (λ_phys, several seeds), 4 (held-out cases) and the
 data-efficiency curve.
 """
@@ -53,7 +55,7 @@ PAPER_TABLE3 = {0.0: 10.0502, 1e-4: 10.0510, 1e-3: 10.0415, 1e-2: 10.0050, 1e-1:
 # drive gain, m_eq is not identifiable below the 1.2 kHz mode, and friction with σ read in SI is negligible.
 HELD = ("stiffness.k", "friction.Fc", "friction.v_s", "hysteresis.kappa", "structure.mass")
 MODELS = {"physics": "physics (DE nominal)", "mlp": "MLP", "lstm": "LSTM", "std_pinn": "Std-PINN",
-          "hybrid": "Hybrid-PINN"}
+          "hybrid": "Hybrid-PINN", "hybrid_dynamics": "Hybrid in the loop"}
 
 
 # -- the synthetic actuator ------------------------------------------------------------------------------
@@ -161,7 +163,7 @@ def train_config(kind: str, data_path: Path, nominal: dict, split: dict, o: dict
     from hydra import compose
     from omegaconf import OmegaConf
 
-    baseline = {"hybrid": "hybrid_mlp"}.get(kind, kind)
+    baseline = {"hybrid": "hybrid_mlp"}.get(kind, kind)  # hybrid_dynamics: the network inside the equations
     with _hydra_context():
         cfg = compose("train", overrides=["data=table", "model=piezo_attenuation", "logger=none",
                                           f"baseline={baseline}"])
@@ -190,7 +192,10 @@ def train_config(kind: str, data_path: Path, nominal: dict, split: dict, o: dict
 
 
 def _inference_ms(module, dm, repeats: int = 200) -> float:
-    """Mean forward time [ms] of the module's network for one sample (seed 003's single-sample inference)."""
+    """Mean forward time [ms] of the module's network for one sample (seed 003's single-sample inference);
+    NaN for a network inside the dynamics (it is evaluated at every integrator stage, not once per sample)."""
+    if getattr(module, "placement", "output") == "dynamics":
+        return float("nan")
     series = ("t", "u", "du", "ddu", "dddu", "y", "mask")
     batch = {k: v[None, :1] if k in series else v[None] for k, v in dm.whole("train")[0].items()}
     feats = module.features(batch)
@@ -375,7 +380,8 @@ def _training_tables(runs, o: dict, progress: bool) -> dict:
     """Tables 3, 2, 4 and the data-efficiency table, in that order (Table 3 chooses λ_phys for the others)."""
     from tqdm.auto import tqdm
 
-    n_runs = len(o["lambdas"]) * len(o["seeds"]) + len(o["architectures"]) + 2 + 4 * (len(o["fractions"]) - 1)
+    n_runs = (len(o["lambdas"]) * len(o["seeds"]) + len(o["architectures"]) + 2 + bool(o.get("in_the_loop", True))
+              + 4 * (len(o["fractions"]) - 1))
     with tqdm(total=n_runs, desc="seed003 training runs", disable=not progress) as runs.bar:
         lam_table, lam = _lambda_table(runs, o)
         arch = _architecture_table(runs, o, lam)
@@ -454,15 +460,16 @@ def _architecture_table(runs: _Runs, o: dict, lam: float) -> pd.DataFrame:
 def _holdout_table(runs: _Runs, o: dict, lam: float) -> tuple[pd.DataFrame, dict]:
     s = o["seeds"][0]
     hold = {"hybrid": runs.get("hybrid", "4x128", lam, s)}
-    hold.update({k: runs.get(k, None, None, s) for k in ("mlp", "lstm", "std_pinn")})
+    kinds = ("mlp", "lstm", "std_pinn") + (("hybrid_dynamics",) if o.get("in_the_loop", True) else ())
+    hold.update({k: runs.get(k, None, None, s) for k in kinds})
     cases = _pairs(o["test_cases"])
     rows = []
-    for kind in MODELS:
+    for kind in (k for k in MODELS if k in hold or k == "physics"):
         r, key = (hold["hybrid"], "y_nominal") if kind == "physics" else (hold[kind], "y_pred")
         per = _case_rmse(r, key)
         rows.append({"model": MODELS[kind], "source": "this study",
                      **{_label(*c): per[_name(c)] for c in cases}, "pooled": _pooled(r, key)[0]})
-    for kind in MODELS:
+    for kind in PAPER_TABLE4:
         paper = dict(zip(PAPER_CASES, PAPER_TABLE4[kind]))
         rows.append({"model": MODELS[kind], "source": "seed 003 Table 4",
                      **{_label(*c): paper.get(c, float("nan")) for c in cases}, "pooled": float("nan")})
@@ -490,6 +497,8 @@ def _run_summary(lam, tables, runs) -> dict:
             "holdout_rmse_um": {m: {c: float(v) for c, v in row.items() if c not in ("source", "pooled")}
                                 for m, row in ours.iterrows()},
             "hybrid_vs_physics_improvement_pct": 100 * (1 - hybrid / physics),
+            "in_the_loop_vs_parallel_pooled": (float(ours.loc[MODELS["hybrid_dynamics"], "pooled"]) / hybrid
+                                               if MODELS["hybrid_dynamics"] in ours.index else None),
             "architecture_rmse_um": dict(zip(arch_table["architecture"], map(float, arch_table["RMSE µm"]))),
             "lambda_rmse_um": dict(zip(map(str, lam_table["λ_phys"]), lam_table["RMSE µm"])),
             "data_efficiency_rmse_um": {c: [float(v) for v in eff_table[c]] for c in eff_table.columns},
@@ -532,15 +541,17 @@ def _holdout_figure(hold: dict, o: dict):
 
     cases = _pairs(o["test_cases"])
     fig, axes = plt.subplots(2, len(cases), figsize=(2.6 * len(cases), 4.6), squeeze=False)
-    styles = {"physics": ("tab:red", "--"), "hybrid": ("tab:blue", "-"), "lstm": ("tab:green", "-"),
-              "mlp": ("tab:orange", "-")}
+    styles = {"physics": ("tab:red", "--"), "hybrid": ("tab:blue", "-"), "hybrid_dynamics": ("tab:purple", "-"),
+              "lstm": ("tab:green", "-"), "mlp": ("tab:orange", "-")}
     for j, case in enumerate(cases):
         for kind, (color, ls) in styles.items():
+            if kind not in hold and kind != "physics":
+                continue
             r, key = (hold["hybrid"], "y_nominal") if kind == "physics" else (hold[kind], "y_pred")
             p = next(p for p in r["test"] if p["record"] == _name(case))
             if kind == "physics":
                 axes[0, j].plot(p["x"], p["y"], color="0.6", lw=2, label="measured")
-            if kind in ("physics", "hybrid"):
+            if kind in ("physics", "hybrid", "hybrid_dynamics"):
                 axes[0, j].plot(p["x"], p[key], color=color, ls=ls, lw=1, label=MODELS[kind])
             axes[1, j].plot(p["t"] * case[1], p[key] - p["y"], color=color, ls=ls, lw=0.8, label=MODELS[kind])
         axes[0, j].set_title(_label(*case), fontsize=9)
