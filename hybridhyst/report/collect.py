@@ -27,7 +27,7 @@ __all__ = [
 
 SPLITS = ("test", "val", "train")
 METRICS = ("rmse", "mae", "nrmse", "n")
-INFO_FIELDS = ("module", "name", "residual", "hidden", "lambda_phys", "seed", "train_fraction", "n_parameters",
+INFO_FIELDS = ("module", "name", "residual", "placement", "hidden", "lambda_phys", "seed", "train_fraction", "n_parameters",
                "train_time_s", "epochs", "data", "model", "experiment")
 # Outcomes of a run rather than settings: runs that differ only in these belong to one configuration.
 MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs")
