@@ -165,3 +165,26 @@ def test_placement_options_are_checked():
         HybridModule(_oscillator(), norm, residual="lstm", hidden="1x8", placement="dynamics")
     with pytest.raises(ValueError, match="latent_states belong"):
         HybridModule(_oscillator(), norm, latent_states=2)
+
+
+def test_identification_fits_the_physical_part_of_a_hybrid_with_its_network_held():
+    """identify searches the nominal's coordinates of an augmented model; the network (no physical
+    parameters) keeps its weights and still reads its conditions on the batched path."""
+    from hybridhyst.identify import identify
+
+    torch.manual_seed(1)
+    net = _neural(latent=1)
+    for p in net.net.parameters():
+        p.data.normal_(0.0, 0.2)
+    truth = _damper().augmented({"neural": net})
+    t, x, cond = _inputs()
+    with torch.no_grad():
+        y = simulate(truth, x, t=t, conditions=cond)[..., 0].numpy()
+    records = [Record(f"r{i}", t.numpy(), x[i].numpy(), y[i], conditions={"p": float(cond["p"][i])})
+               for i in range(3)]
+    start = _damper()
+    start.effects["viscous"].params["c"].value.data.fill_(0.3)  # truth 0.1
+    model = start.augmented({"neural": net})
+    res = identify(model, records, method="cma", pop=8, generations=4, fisher=False, progress=False)
+    assert res.rmse < 1e-4
+    assert float(start.effects["viscous"].params["c"](None, 1)[0]) == pytest.approx(0.1, rel=1e-3)

@@ -87,7 +87,9 @@ class RecordsProblem:
         for _, t, U, _, cond in self.groups:
             N, R = X.shape[0], U.shape[0]
             values = self.space.values(X.to(U.dtype), cond, R)
-            y = simulate(self.space.model, U.repeat(N, 1, 1), t=t.repeat(N, 1), values=values, **self.sim)
+            rows = {k: v.repeat(N) for k, v in cond.items()} or None  # for effects without parameters (networks)
+            y = simulate(self.space.model, U.repeat(N, 1, 1), t=t.repeat(N, 1), values=values, conditions=rows,
+                         **self.sim)
             out.append(y[..., 0].reshape(N, R, -1))
         return out
 

@@ -26,8 +26,8 @@ __all__ = [
 ]
 
 STAT_COLUMNS = ("test_rmse", "test_mae", "test_nrmse", "val_rmse")
-SUMMARY_FRONT = ["configuration", "name", "module", "residual", "placement", "arch", "lambda_phys", "train_fraction", "n_seeds",
-                 "n_failed", *(f"{c}_{s}" for c in STAT_COLUMNS for s in ("mean", "std")), "n_parameters",
+SUMMARY_FRONT = ["configuration", "name", "module", "residual", "placement", "arch", "lambda_phys", "train_fraction",
+                 "n_seeds", "n_failed", *(f"{c}_{s}" for c in STAT_COLUMNS for s in ("mean", "std")), "n_parameters",
                  "train_time_s_mean"]
 
 

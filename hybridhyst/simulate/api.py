@@ -40,10 +40,14 @@ def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Ten
     return out
 
 
-def _check_values(model, values, batch: int):
-    """Validate explicit per-row parameter values against the model's parameter names."""
+def _check_values(model, values, batch: int, conditions=None):
+    """Validate explicit per-row parameter values against the model's parameter names; an effect without
+    parameters (a network) evaluates its own inputs from the conditions."""
     out = {}
     for key in list(model.effects) + ["structure"]:
+        if key != "structure" and not model.effects[key].params and key not in values:
+            out[key] = model.effects[key].evaluate(conditions, batch)
+            continue
         given = values.get(key, {})
         names = list(model.effects[key].params) if key != "structure" else list(model.structure_params)
         missing = [n for n in names if n not in given]
@@ -127,7 +131,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     u, t = _prepare(inputs, t, dt, dtype)
     B = u.shape[0]
     cond = _as_conditions(conditions, B, dtype, u.device)
-    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B)
+    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B, cond)
     U = with_rates(u, t)
     tau = model.input_delay(P)
     if tau is not None:
