@@ -231,6 +231,7 @@ def info(cfg: DictConfig) -> dict:
             "conditions": ",".join(cfg.datamodule.conditions),
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
             "placement": str(cfg.get("placement", "output")) if kind == "hybrid" else None,
+            "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
             "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}
 
 
