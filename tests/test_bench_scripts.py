@@ -51,3 +51,12 @@ def test_bench_identify_quick_writes_the_expected_json(tmp_path):
     single = res["single"]["tight"]
     assert {"hybridhyst", "scipy", "ratio", "floor", "bounds"} <= set(single)
     assert single["hybridhyst"]["rmse"] < 1.0 and len(single["bounds"]) == 11
+
+
+def test_bench_neural_quick_measures_every_path(tmp_path):
+    res = _run("bench_neural.py", tmp_path)
+    paths = {(r["model"], r["path"], r["mode"]) for r in res["rows"]}
+    assert paths == {(m, p, mode) for m, p in (("nominal", "fast"), ("nominal", "reference"), ("neural", "reference"))
+                     for mode in ("forward", "gradient")}
+    assert all(r["us_per_sample_step"] > 0 for r in res["rows"])
+    assert {r["batch"] for r in res["ratios"]} == {1, 16}
