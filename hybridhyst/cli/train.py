@@ -52,7 +52,7 @@ from .common import (
 )
 
 __all__ = ["StartModel", "build_datamodule", "build_module", "build_trainer", "identify_nominal", "main",
-           "nominal_start", "run", "training_records"]
+           "nominal_start", "run"]
 
 DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std-pinn"}
 NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
@@ -127,23 +127,6 @@ def nominal_start(cfg: DictConfig) -> str | None:
     return "model" if method == "none" else method  # build_module refuses an unknown method
 
 
-def training_records(dm: RecordDataModule) -> list:
-    """The training records as training sees them: thinned by the data module's factors; with
-    ``train_fraction`` < 1 only the kept windows (one record each), so the nominal sees no more data than
-    the network."""
-    records = list(dm.records("train"))
-    thin = [r.slice(step=dm.factors[r.name]) if dm.factors[r.name] > 1 else r for r in records]
-    if dm.train_fraction >= 1.0:
-        return thin
-    if dm.window is None:
-        return [thin[i] for i in sorted({i for i, _ in dm._train.items})]
-    out = []
-    for i, s in dm._train.items:
-        r, f = records[i], dm.factors[records[i].name]
-        out.append(r.slice(s * f, (s + dm.window) * f, step=f, name=f"{r.name}@{s}"))
-    return out
-
-
 def _identify_settings(cfg: DictConfig) -> dict:
     """identify() keyword arguments: conf/identify.yaml's ``identify:`` block (one source of the defaults),
     the training simulation settings, no Fisher analysis, then ``nominal_init.settings``."""
@@ -158,12 +141,12 @@ def _identify_settings(cfg: DictConfig) -> dict:
 
 
 def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
-    """Fit ``nominal`` in place to the training records (``training_records``) with
+    """Fit ``nominal`` in place to the training records (``RecordDataModule.training_records``) with
     ``hybridhyst.identify.identify`` (``_identify_settings``); returns a summary for metrics.json."""
     from ..identify import identify
 
     opts = _identify_settings(cfg)
-    records = training_records(dm)
+    records = dm.training_records()
     progress = bool((cfg.get("nominal_init") or {}).get("progress", True))
     if progress:
         print(f"identifying the nominal on {len(records)} training records "

@@ -244,6 +244,22 @@ class RecordDataModule(L.LightningDataModule):
     def records(self, split: str) -> RecordSet:
         return getattr(self.split, split)
 
+    def training_records(self) -> list[Record]:
+        """The training records as training sees them: thinned by this module's factors; with
+        ``train_fraction`` < 1 only the kept windows (one record each, named ``<record>@<start>``), so that a
+        model fitted to them (the identified start of a nominal) sees no more data than the network."""
+        records = list(self.split.train)
+        thin = [r.slice(step=self.factors[r.name]) if self.factors[r.name] > 1 else r for r in records]
+        if self.train_fraction >= 1.0:
+            return thin
+        if self.window is None:
+            return [thin[i] for i in sorted({i for i, _ in self._train.items})]
+        out = []
+        for i, s in self._train.items:
+            r, f = records[i], self.factors[records[i].name]
+            out.append(r.slice(s * f, (s + self.window) * f, step=f, name=f"{r.name}@{s}"))
+        return out
+
     def labels(self, split: str) -> list[str]:
         """Condition label of each record of ``split`` (per-condition metrics)."""
         return [condition_label(r, self.label_conditions) for r in getattr(self.split, split)]

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import torch
 from torch import nn
 
-from ..data.batch import record_batches
+from ..data.batch import numeric_conditions, record_batches
 from ..data.records import Record, RecordSet
 from ..simulate import simulate
 from ..simulate.inputs import with_rates
@@ -270,11 +270,7 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
               ode_method, substeps, search_decimate, backend) -> IdentificationResult:
     start = time.perf_counter()
     records = _records(records)
-    scales = {}
-    for r in records:
-        for name, value in r.conditions.items():
-            if isinstance(value, (int, float)) and not isinstance(value, bool):
-                scales[name] = max(scales.get(name, 0.0), abs(float(value)))
+    scales = {k: float(v.abs().max()) for k, v in numeric_conditions(records).items()}  # trend boxes
     space = SearchSpace(model, bounds, factor=box_factor, condition_scales=scales)
     problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
     coarse = problem

@@ -140,7 +140,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
     if backend not in ("reference", "fast"):
         raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
-    if backend == "fast" and not all(getattr(e, "compiled", True) for e in model.effects.values()):
+    if backend == "fast" and not all(e.compiled for e in model.effects.values()):
         backend = "reference"  # a network (neural effect) is not compiled: the batched reference loop runs it
     if backend == "fast":
         if solver != "fixed":

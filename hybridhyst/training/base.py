@@ -234,15 +234,16 @@ class NominalMixin:
         for key, v in values.items():
             self.log(f"phys/{key} [{self.nominal_unit(key)}]", v)
 
-    def flat(self, batch, detach: bool = True):
+    def flat(self, batch, detach: bool = True, model=None):
         """Masked collocation rows: inputs, times and the nominal's parameter values ``(N,)``; ``detach``
         makes the parameters constants (the hybrid: λ_phys regularises the branch, the data loss trains the
-        nominal) or keeps them trainable (the standard PINN identifies the nominal through the residual)."""
+        nominal) or keeps them trainable (the standard PINN identifies the nominal through the residual);
+        ``model``: another model's values (a hybrid's augmented model) instead of the nominal's."""
         m = batch["mask"].reshape(-1) > 0
         B, T = batch["u"].shape
         rows = {k: batch[k].reshape(-1)[m].to(self.dtype) for k in ("t", "u", "du", "ddu", "dddu")}
         cond = {k: v.repeat_interleave(T)[m] for k, v in self.conditions(batch).items()}
-        P = self.nominal.evaluate(cond, int(m.sum()))
+        P = (self.nominal if model is None else model).evaluate(cond, int(m.sum()))
         if detach:
             P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in P.items()}
         return m, rows, P

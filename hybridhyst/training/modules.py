@@ -165,10 +165,8 @@ class HybridModule(NominalMixin, SequenceModule):
 
     def physics_loss(self, batch, out):
         if self.placement == "dynamics":  # the network's force is how far the hybrid departs from the nominal
-            m, rows, _ = self.flat(batch)
+            m, rows, P = self.flat(batch, detach=False, model=self.model)
             S = out["states"].reshape(-1, out["states"].shape[-1])[m].to(self.dtype)
-            cond = {k: v.repeat_interleave(batch["u"].shape[1])[m] for k, v in self.conditions(batch).items()}
-            P = self.model.evaluate(cond, S.shape[0])
             force = self.model.effect_forces(S, InputSampleOf(rows), P)[NEURAL]
             return (force / self.net.force_scale).square().mean()
         m, rows, P = self.flat(batch)
