@@ -240,7 +240,7 @@ def markdown(rows: Sequence[dict]) -> str:
             f"{keys} | {_f(r['test_rmse_before'])} → {_f(r['test_rmse_after'])} | "
             f"{_f(r['after_over_noise'], '{:.2f}')} | {flagged} | {status} | {r['wall_s']:.0f} |")
     s = summary(rows)
-    pct = lambda v: "—" if v is None else f"{v:.0%}"  # noqa: E731
+    pct = lambda v: "—" if v is None else f"{v:.1%}"  # noqa: E731
     mark = lambda ok: "met" if ok else "**not met**"  # noqa: E731
     t = s["targets"]
     lines += ["",
