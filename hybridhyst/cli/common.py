@@ -13,20 +13,17 @@ used), ``split.held_out`` (test) and ``split.val`` (validation), each a list of 
 
 from __future__ import annotations
 
-import contextlib
 import difflib
 import inspect
 import os
-import random
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-import torch
 from omegaconf import DictConfig, OmegaConf
 
 from ..files import atomic_write, jsonable, write_json  # noqa: F401 (the apps' run-directory I/O)
+from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
 
 __all__ = [
     "CONF_DIR",
@@ -45,9 +42,6 @@ __all__ = [
     "write_json",
 ]
 
-# The Hydra config tree is the repository's top-level ``conf/`` (install with ``pip install -e .`` so that
-# it sits next to the package); HYBRIDHYST_CONF points elsewhere.
-CONF_DIR = str(Path(os.environ.get("HYBRIDHYST_CONF", Path(__file__).resolve().parents[2] / "conf")))
 
 
 def prepare_run_dir(cfg: DictConfig) -> Path:
@@ -91,29 +85,6 @@ def instantiate(node, **kwargs):
             raise cause from None
         detail = f": {cause}" if cause is not None else ""
         raise ValueError(str(exc).splitlines()[0].rstrip(":") + detail) from exc
-
-
-@contextlib.contextmanager
-def torch_settings(dtype: str = "float64", threads: int | None = None, seed: int | None = 0):
-    """Default dtype, intra-op threads and seeds for one run; restored afterwards.
-
-    The simulator's per-step cost is Python overhead on small tensors, so one thread is usually fastest.
-    """
-    if dtype not in ("float32", "float64"):
-        raise ValueError(f"dtype must be 'float32' or 'float64', got {dtype!r}")
-    old_dtype, old_threads = torch.get_default_dtype(), torch.get_num_threads()
-    torch.set_default_dtype(getattr(torch, dtype))
-    if threads:
-        torch.set_num_threads(int(threads))
-    if seed is not None:
-        random.seed(seed)
-        np.random.seed(seed)
-        torch.manual_seed(seed)
-    try:
-        yield
-    finally:
-        torch.set_default_dtype(old_dtype)
-        torch.set_num_threads(old_threads)
 
 
 def check_app(cfg: DictConfig, app: str) -> None:

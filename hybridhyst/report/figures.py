@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..cli.common import atomic_write
+from ..files import atomic_write
 from .tables import configuration_labels
 
 __all__ = ["data_efficiency_figure", "error_per_condition_figure", "lambda_figure", "loops_figure", "sweeps"]

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..cli.common import atomic_write
+from ..files import atomic_write
 from .collect import collect_runs
 from .figures import data_efficiency_figure, error_per_condition_figure, lambda_figure, loops_figure
 from .tables import condition_stats, condition_table, error_unit, failed_table, summary_table

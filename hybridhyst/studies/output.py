@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..cli.common import atomic_write, write_json
+from ..files import atomic_write, write_json
 
 START, END = "<!-- results:start -->", "<!-- results:end -->"
 ARTEFACTS = ("*.csv", "*.png", "results.md", "summary.json")

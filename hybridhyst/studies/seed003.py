@@ -146,7 +146,7 @@ def _hydra_context():
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from ..cli.common import CONF_DIR
+    from ..settings import CONF_DIR
 
     if GlobalHydra.instance().is_initialized():
         yield
@@ -215,7 +215,7 @@ def fit_run(cfg, run_dir: Path) -> dict:
 
     import lightning as L
 
-    from ..cli.common import torch_settings
+    from ..settings import torch_settings
     from ..cli.train import build_datamodule, build_module, build_trainer
     from ..training import predict_split, split_metrics
 
@@ -397,7 +397,7 @@ def _name(case) -> str:
 
 def atomic_parquet(records: RecordSet, path: Path) -> Path:
     """Write the sweeps as one long table (``RecordSet.to_frame``) that ``data=table`` reads back."""
-    from ..cli.common import atomic_write
+    from ..files import atomic_write
 
     frame = records.to_frame()
     return atomic_write(path, lambda p: frame.to_parquet(p, index=False))
