@@ -26,6 +26,7 @@ from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
 from ..physics.models import conditions_used
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
@@ -216,7 +217,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         if not cands:
             break
         ranking = []
-        for cand in _progress(cands, progress, "rank candidates"):
+        for cand in progress_bar(cands, "rank candidates", enabled=progress):
             try:
                 c_fit = fit_candidate(cand, fit.model, train, _at(sim, fit), lm_steps, box_factor)
             except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
@@ -257,7 +258,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), _rmse_of(fit.model, scored,
                                                                                              _at(sim, fit))
         fit, ic, val_rmse, gone = simplify(fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, _rmse_of,
-                                           (lambda items, what: _progress(items, progress, what)))
+                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
         for g in gone:
             g["after_step"] = len(steps)
             tried.add(g["effect"])  # a removed or replaced effect is not offered again
@@ -344,10 +345,3 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
     return {"explained_share": share, "on": "val" if val else "train",
             "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
 
-
-def _progress(items, enabled: bool, what: str):
-    if not enabled:
-        return items
-    from tqdm.auto import tqdm
-
-    return tqdm(items, desc=what, leave=False)

@@ -19,6 +19,7 @@ from torch import nn
 
 from ..data.records import Record, RecordSet
 from ..physics.parameters import project_to_bounds
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 
 __all__ = ["FitResult", "decimate", "fit_gradient", "record_loss"]
@@ -133,16 +134,10 @@ class _Objective:
         self.model.load_state_dict(self.best_state)
 
 
-def _progress(total: int, desc: str, enabled: bool):
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=desc, disable=not enabled, leave=False, dynamic_ncols=True)
-
-
 def _run_adam(obj: _Objective, steps: int, lr: float, progress: bool, history: list[float]) -> int:
     opt = torch.optim.Adam(_param_groups(obj.model, lr))
     failures, done = 0, 0
-    with _progress(steps, "adam", progress) as bar:
+    with progress_bar(total=steps, desc="adam", enabled=progress) as bar:
         while done < steps:
             opt.zero_grad()
             value = obj()
@@ -181,7 +176,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
         return value
 
     done = 0
-    with _progress(iters, "lbfgs", progress) as bar:
+    with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:
         for _ in range(iters):
             value = opt.step(closure)
             project_to_bounds(obj.model)

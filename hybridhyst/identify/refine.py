@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import torch
 
-from .search import _progress
+from ..progress import progress as progress_bar
 from .space import Box
 
 __all__ = ["RefineResult", "levenberg_marquardt", "refine"]
@@ -128,7 +128,7 @@ def refine(loss_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts
     w = torch.logit(unit).clone().requires_grad_(True)
     rows = _Rows(loss_rows, space, w)
     history: list[float] = []
-    with _progress(adam_steps + lbfgs_steps, "refine", progress) as bar:
+    with progress_bar(total=adam_steps + lbfgs_steps, desc="refine", enabled=progress) as bar:
         if adam_steps:
             _adam(rows, int(adam_steps), lr, history, bar, target)
         if lbfgs_steps:
@@ -197,7 +197,7 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     J = _lm_jacobian(residual_rows, space, W, r, h, free)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
     history, evals = [float(cost.min())], K * (F + 1)
-    with _progress(iters, "levenberg-marquardt", progress) as bar:
+    with progress_bar(total=iters, desc="levenberg-marquardt", enabled=progress) as bar:
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
                 break

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from ..progress import progress as progress_bar
 from .space import Box
 
 __all__ = ["SearchResult", "cma_es", "differential_evolution", "grid_search", "monte_carlo", "safe_costs"]
@@ -69,12 +70,6 @@ def _as_box(space) -> Box:
         return space
     lower, upper = space
     return Box(lower, upper)
-
-
-def _progress(total: int, desc: str, enabled: bool):
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=desc, disable=not enabled, leave=False, dynamic_ncols=True)
 
 
 def _latin_hypercube(rng: np.random.Generator, n: int, d: int) -> np.ndarray:
@@ -140,7 +135,7 @@ def differential_evolution(objective: Objective, space, *, pop: int | None = Non
         U[: len(start)] = np.clip(start[:N], 0, 1)
     costs = _score(objective, box, U)
     bad, history, gens = int(np.isinf(costs).sum()), [float(costs.min())], 0
-    with _progress(generations, "differential evolution", progress) as bar:
+    with progress_bar(total=generations, desc="differential evolution", enabled=progress) as bar:
         while gens < generations and not (target is not None and history[-1] <= target):
             trial = _de_trials(rng, U, costs, F, CR, strategy)
             tc = _score(objective, box, trial)
@@ -216,7 +211,7 @@ def cma_es(objective: Objective, space, *, pop: int | None = None, generations: 
     s = _CMAState(mean=mean, sigma=float(sigma0), C=np.eye(D), pc=np.zeros(D), ps=np.zeros(D))
     best_u, best_c, history, bad, gen = mean.copy(), math.inf, [], 0, 0
     last_U, last_c = mean[None], np.array([math.inf])
-    with _progress(generations, "CMA-ES", progress) as bar:
+    with progress_bar(total=generations, desc="CMA-ES", enabled=progress) as bar:
         for gen in range(1, generations + 1):
             vals, vecs = np.linalg.eigh(s.C)
             Z = rng.standard_normal((lam, D))
@@ -262,7 +257,7 @@ class _Best:
 def _batched(objective, box: Box, batches, total: int, desc: str, keep: int, target, progress) -> SearchResult:
     """Score coordinate batches in turn, keeping the best ``keep``; stop at ``target``."""
     best, history, evals, bad, n = _Best(keep, box.dim), [], 0, 0, 0
-    with _progress(total, desc, progress) as bar:
+    with progress_bar(total=total, desc=desc, enabled=progress) as bar:
         for X in batches:
             c = safe_costs(objective, X)
             best.add(X, c)

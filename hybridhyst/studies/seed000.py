@@ -23,7 +23,6 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import torch
-from tqdm.auto import tqdm
 
 from ..analysis import mae, r2, rmse
 from ..data.builtin import load_vpptd
@@ -31,6 +30,7 @@ from ..data.datamodule import RecordDataModule
 from ..identify import identify
 from ..physics.compositions.seed000 import SEED000_QUOTED, vpptd_algebraic
 from ..physics.parameters import Constant
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 from ..training.modules import PhysicsModule
 from . import resolve_options
@@ -202,7 +202,7 @@ def pinn_identification(options: dict, out: StudyOutput) -> dict:
     records = load_vpptd(mixtures=[opts["mixture"]], pressures=pressures, cycles=int(opts["cycles"]),
                          samples_per_cycle=int(opts["samples_per_cycle"]))
     seeds = [int(opts["seed"]) * 1000 + round(p * 100) for p in pressures]  # a pressure's init never changes
-    bar = tqdm(list(zip(records, seeds)), desc="seed 000 PINN", disable=not opts["progress"])
+    bar = progress_bar(list(zip(records, seeds)), "seed 000 PINN", enabled=opts["progress"])
     pinn = [_train_pinn(r, opts, s) for r, s in bar]
     ident = [_identify(r, opts, s) for r, s in zip(records, seeds)]
     per_cycle = int(opts["samples_per_cycle"])

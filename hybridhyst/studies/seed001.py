@@ -18,7 +18,6 @@ import time
 import numpy as np
 import pandas as pd
 import torch
-from tqdm.auto import tqdm
 
 from ..analysis import rmse
 from ..data.builtin import load_vpptd
@@ -34,6 +33,7 @@ from ..physics.compositions.seed001 import (
     modified_bouc_wen,
     parameter_functions,
 )
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 from . import resolve_options
 from .output import StudyOutput
@@ -189,7 +189,7 @@ def vpptd_dynamics(options: dict, out: StudyOutput) -> dict:
     """Identify, compare loops and combinations, free vibration (Table 2), forced rig (Figs. 10–14)."""
     opts = _options(options)
     results = {}
-    for mixture in tqdm(opts["mixtures"], desc="seed 001 mixtures", disable=not opts["progress"]):
+    for mixture in progress_bar(opts["mixtures"], "seed 001 mixtures", enabled=opts["progress"]):
         start = time.perf_counter()
         ident = _identify(mixture, opts)
         coefficients = ident["coefficients"]

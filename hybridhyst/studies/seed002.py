@@ -22,7 +22,6 @@ import time
 import numpy as np
 import pandas as pd
 import torch
-from tqdm.auto import tqdm
 
 from ..analysis import fit_trend, r2, relative_error, rmse
 from ..analysis import loop_metrics as measure_loop
@@ -33,6 +32,7 @@ from ..physics.compositions.seed002 import TABLE2_FITS, bouc_wen_p
 from ..physics.effects import EFFECTS
 from ..physics.effects.bouc_wen_p import BoucWenNormalised
 from ..physics.models import Constitutive
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 from . import resolve_options
 from .output import StudyOutput
@@ -124,7 +124,7 @@ def _per_pressure(opts: dict, records, progress: bool):
     bounds = {f"hysteresis.{k}": tuple(float(b) for b in v) for k, v in opts["bounds"].items()}
     start = {k: 0.5 * (lo + hi) for k, (lo, hi) in opts["bounds"].items()}
     rows, fits = [], []
-    for i, rec in enumerate(tqdm(records, desc="per-pressure fits", disable=not progress)):
+    for i, rec in enumerate(progress_bar(records, "per-pressure fits", enabled=progress)):
         space = SearchSpace(_bouc_wen(start), bounds)
         problem = RecordsProblem(space, [rec])
         runs = []
@@ -149,7 +149,7 @@ def _continuation(opts: dict, records, first: dict, progress: bool) -> pd.DataFr
     neighbour's fit, so the parameters follow one smooth path instead of jumping between equivalent optima."""
     bounds = {f"hysteresis.{k}": tuple(float(b) for b in v) for k, v in opts["bounds"].items()}
     rows, values = [], first
-    for i, rec in enumerate(tqdm(records, desc="continuation", disable=not progress)):
+    for i, rec in enumerate(progress_bar(records, "continuation", enabled=progress)):
         if i:
             space = SearchSpace(_bouc_wen(values), bounds)
             lm = levenberg_marquardt(RecordsProblem(space, [rec]).residuals, space, space.initial()[None],

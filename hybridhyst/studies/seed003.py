@@ -215,8 +215,8 @@ def fit_run(cfg, run_dir: Path) -> dict:
 
     import lightning as L
 
-    from ..settings import torch_settings
     from ..cli.train import build_datamodule, build_module, build_trainer
+    from ..settings import torch_settings
     from ..training import predict_split, split_metrics
 
     with torch_settings("float64", 1, int(cfg.seed)), warnings.catch_warnings():

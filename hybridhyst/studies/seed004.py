@@ -19,12 +19,12 @@ import time
 import numpy as np
 import pandas as pd
 import torch
-from tqdm.auto import tqdm
 
 from ..analysis import relative_error
 from ..data import Record
 from ..identify import RecordsProblem, SearchSpace, grid_search, identify
 from ..physics.compositions.seed004 import CAPTION_PARAMETERS, bouc_wen_classic
+from ..progress import progress as progress_bar
 from ..simulate import simulate
 from . import resolve_options
 from .output import StudyOutput
@@ -240,7 +240,7 @@ def symmetric_damper(options: dict, out: StudyOutput) -> dict:
     progress = bool(opts["progress"])
     out.figure("caption_loops", _caption_figure(opts), "Figs. 7–8: F(x) and F(ẋ) for the caption parameters "
                f"(±{opts['amplitude_mm']:g} mm, {opts['frequency_hz']:g} Hz, {opts['cycles']} cycles from rest)")
-    results = [_case(opts, case, progress) for case in tqdm(opts["cases"], desc="pressures", disable=not progress)]
+    results = [_case(opts, case, progress) for case in progress_bar(opts["cases"], "pressures", enabled=progress)]
     ident, combos = _tables(results, opts)
     floor = [relative_error(r["clean"], r["rec"].y) for r in results]
     out.text(f"Data: ±{opts['amplitude_mm']:g} mm sine at {opts['frequency_hz']:g} Hz, {opts['sample_rate_hz']:g} Hz "
