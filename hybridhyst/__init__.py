@@ -12,6 +12,7 @@ from .physics import Constitutive as Constitutive
 from .physics import DrivenOscillator as DrivenOscillator
 from .physics import build_model as build_model
 from .simulate import simulate as simulate
+from .synth import load_vpptd as load_vpptd  # also registers the built-in dataset "vpptd"
 
 __version__ = "0.1.0"
 
@@ -22,6 +23,7 @@ __all__ = [
     "RecordSet",
     "build_model",
     "load_builtin",
+    "load_vpptd",
     "read_table",
     "simulate",
 ]

@@ -11,12 +11,12 @@ from hybridhyst.physics.compositions import (
     SEED000_QUOTED,
     TABLE2_HZ,
     boucwen_benchmark,
-    free_vibration_frequencies,
     modified_bouc_wen,
     piezo_attenuation,
     vpptd_algebraic,
 )
 from hybridhyst.simulate import simulate
+from hybridhyst.synth import free_vibration_frequencies
 
 
 @pytest.mark.parametrize("mixture", MIXTURES)

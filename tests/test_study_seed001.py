@@ -14,15 +14,13 @@ from hybridhyst.cli import study as study_cli
 from hybridhyst.physics.compositions.seed001 import (
     TABLE1,
     TABLE2_HZ,
-    forced_response,
-    identifiable_combinations,
     modified_bouc_wen,
     parameter_functions,
-    pressure_segments,
     vpptd_rig,
 )
 from hybridhyst.simulate import simulate
-from hybridhyst.studies import STUDIES, get_study
+from hybridhyst.studies import get_study
+from hybridhyst.synth import forced_response, identifiable_combinations, pressure_segments
 
 
 def _compose(tmp_path, *overrides):
@@ -30,9 +28,15 @@ def _compose(tmp_path, *overrides):
 
 
 def test_experiment_selects_the_study(tmp_path):
+    """The experiment config runs seed 001's study function (not another one), and a wrong name is refused."""
+    from hybridhyst.studies.seed001 import vpptd_dynamics
+
     cfg = _compose(tmp_path)
-    assert cfg.app == "study" and cfg.study in STUDIES
-    assert callable(get_study(cfg.study))
+    assert cfg.study == "seed001_vpptd_dynamics"
+    assert get_study(cfg.study) is vpptd_dynamics
+    assert set(cfg.study_options["mixtures"]) <= set(TABLE1)
+    with pytest.raises(ValueError, match="unknown study 'seed001'.*seed001_vpptd_dynamics"):
+        get_study("seed001")
 
 
 def test_reduced_study_identifies_nbr_and_reproduces_table2_and_the_forced_rig(tmp_path):

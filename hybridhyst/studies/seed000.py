@@ -25,13 +25,13 @@ import pandas as pd
 import torch
 
 from ..analysis import mae, r2, rmse
-from ..data.builtin import load_vpptd
 from ..data.datamodule import RecordDataModule
 from ..identify import identify
 from ..physics.compositions.seed000 import SEED000_QUOTED, vpptd_algebraic
 from ..physics.parameters import Constant
 from ..progress import progress as progress_bar
 from ..simulate import simulate
+from ..synth import load_vpptd
 from ..training.modules import PhysicsModule
 from . import resolve_options
 from .output import StudyOutput

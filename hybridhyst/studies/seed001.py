@@ -20,21 +20,18 @@ import pandas as pd
 import torch
 
 from ..analysis import rmse
-from ..data.builtin import load_vpptd
 from ..identify import identify
 from ..physics.compositions.seed001 import (
     MIXTURES,
     PARAMETER_PATHS,
     TABLE1,
     TABLE2_HZ,
-    forced_response,
-    free_vibration_frequencies,
-    identifiable_combinations,
     modified_bouc_wen,
     parameter_functions,
 )
 from ..progress import progress as progress_bar
 from ..simulate import simulate
+from ..synth import forced_response, free_vibration_frequencies, identifiable_combinations, load_vpptd
 from . import resolve_options
 from .output import StudyOutput
 

@@ -25,7 +25,6 @@ import torch
 
 from ..analysis import fit_trend, r2, relative_error, rmse
 from ..analysis import loop_metrics as measure_loop
-from ..data.builtin import load_vpptd
 from ..identify import Box, RecordsProblem, SearchSpace, identify, monte_carlo
 from ..identify.refine import levenberg_marquardt
 from ..physics.compositions.seed002 import TABLE2_FITS, bouc_wen_p
@@ -34,6 +33,7 @@ from ..physics.effects.bouc_wen_p import BoucWenNormalised
 from ..physics.models import Constitutive
 from ..progress import progress as progress_bar
 from ..simulate import simulate
+from ..synth import load_vpptd
 from . import resolve_options
 from .output import StudyOutput
 

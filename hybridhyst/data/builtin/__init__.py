@@ -4,7 +4,9 @@
 * ``boucwen``: the Bouc–Wen system-identification benchmark, 3 records (MIT, see ``files/boucwen``);
 * ``vpptd``: synthetic vacuum-packed-particle torsional damper loops simulated from seed 001 Table 1.
 
-The data files live in ``files/`` inside the package; nothing is read from outside it.
+The data files live in ``files/`` inside the package; nothing is read from outside it. Synthetic datasets
+are made by simulating a model, which this layer may not import: they live in ``hybridhyst.synth`` and
+register their loader here (``register_builtin``) when ``hybridhyst`` is imported.
 """
 
 from __future__ import annotations
@@ -15,11 +17,17 @@ import inspect
 from ..records import RecordSet
 from .boucwen import load_boucwen
 from .brfd import load_brfd
-from .vpptd import load_vpptd
 
-__all__ = ["BUILTINS", "load_builtin"]
+__all__ = ["BUILTINS", "load_builtin", "register_builtin"]
 
-BUILTINS = {"brfd": load_brfd, "boucwen": load_boucwen, "vpptd": load_vpptd}
+BUILTINS = {"brfd": load_brfd, "boucwen": load_boucwen}
+
+
+def register_builtin(name: str, loader) -> None:
+    """Make ``load_builtin(name, **options)`` call ``loader(**options)`` (a dataset made above this layer)."""
+    if name in BUILTINS and BUILTINS[name] is not loader:
+        raise ValueError(f"built-in dataset {name!r} is already registered")
+    BUILTINS[name] = loader
 
 
 def load_builtin(name: str, **options) -> RecordSet:

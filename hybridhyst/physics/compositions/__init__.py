@@ -20,7 +20,6 @@ from .seed000 import vpptd_algebraic as vpptd_algebraic
 from .seed001 import MIXTURES as MIXTURES
 from .seed001 import TABLE1 as TABLE1
 from .seed001 import TABLE2_HZ as TABLE2_HZ
-from .seed001 import free_vibration_frequencies as free_vibration_frequencies
 from .seed001 import modified_bouc_wen as modified_bouc_wen
 from .seed001 import vpptd_rig as vpptd_rig
 from .seed002 import bouc_wen_p as bouc_wen_p
@@ -41,6 +40,6 @@ COMPOSITIONS = {
 
 __all__ = [
     "COMPOSITIONS", "MIXTURES", "SEED000_QUOTED", "TABLE1", "TABLE2_HZ", "bouc_wen_classic", "bouc_wen_p",
-    "boucwen_benchmark", "dahl_friction", "free_vibration_frequencies", "lugre_friction", "modified_bouc_wen",
+    "boucwen_benchmark", "dahl_friction", "lugre_friction", "modified_bouc_wen",
     "piezo_attenuation", "vpptd_algebraic", "vpptd_rig",
 ]

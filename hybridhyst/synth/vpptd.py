@@ -11,9 +11,11 @@ import functools
 import math
 
 import numpy as np
+import torch
 
-from ...physics.compositions.seed001 import MIXTURES
-from ..records import Record, RecordSet
+from ..data.records import Record, RecordSet
+from ..physics.compositions.seed001 import MIXTURES, modified_bouc_wen
+from ..simulate import simulate
 
 __all__ = ["MIXTURES", "PRESSURES", "load_vpptd"]
 
@@ -53,11 +55,6 @@ def _check_options(mixtures, pressures, cycles, samples_per_cycle, noise_sd, fre
 def _simulate(mixture: str, pressures: tuple[float, ...], n: int, samples_per_cycle: int, frequency_hz: float,
               amplitude_deg: float, substeps: int) -> np.ndarray:
     """Torque [Nm], ``(len(pressures), n)``, of one mixture at every pressure in one batched run (cached)."""
-    import torch
-
-    from ...physics.compositions import modified_bouc_wen
-    from ...simulate import simulate
-
     t = np.arange(n) / (frequency_hz * samples_per_cycle)
     w = 2 * math.pi * frequency_hz
     x = amplitude_deg * np.sin(w * t)
