@@ -13,7 +13,7 @@ import torch
 from hybridhyst.data import RecordSet
 from hybridhyst.discover import Scales, diagnose, discover, information_criterion, structure_explained
 from hybridhyst.discover.report import write_discovery
-from hybridhyst.discover.synthetic import CASES, SPLIT, base_model, make_records, true_model
+from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
 from hybridhyst.simulate import simulate
 
 NOISE = 0.02

@@ -1,61 +1,52 @@
-"""Import direction: lower packages never import the ones above them (read from the source, every import)."""
+"""Import direction: the layers contract in pyproject.toml ([tool.importlinter]), checked by import-linter.
+
+``cli`` → ``studies | testbed`` → ``discover`` → ``training | identify`` → ``synth`` → ``simulate`` →
+``physics`` → ``data | nets | analysis | report`` → ``files | settings | progress``: nothing imports upward
+(also not inside a function), and layers joined by "|" do not import each other.
+"""
 
 from __future__ import annotations
 
-import ast
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[1] / "hybridhyst"
+pytest.importorskip("importlinter", reason="import-linter is a dev dependency (pip install -e '.[dev]')")
 
-# package -> packages it must never import (checked so far; the full order is issue 13's)
-FORBIDDEN = {
-    "discover": {"cli", "training", "studies"},
-    "identify": {"cli", "discover", "studies"},
-    "simulate": {"cli", "discover", "identify", "training", "studies"},
-    "analysis": {"cli", "discover", "identify", "training", "studies", "simulate"},
-    "files": {"cli", "discover", "identify", "training", "studies", "simulate", "physics", "data"},
-}
+ROOT = Path(__file__).resolve().parents[1]
 
 
-def imported_packages(path: Path) -> set[str]:
-    """The first-level ``hybridhyst`` subpackages a module imports (relative or absolute, at any depth)."""
-    module = path.relative_to(PACKAGE.parent).with_suffix("").parts  # ("hybridhyst", "discover", "loop")
-    found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        names = []
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = list(module[: len(module) - node.level])
-                target = base + (node.module.split(".") if node.module else [])
-                names = [".".join(target + [a.name]) if not node.module else ".".join(target) for a in node.names]
-            elif node.module:
-                names = [node.module]
-        elif isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        for name in names:
-            parts = name.split(".")
-            if parts[0] == "hybridhyst" and len(parts) > 1:
-                found.add(parts[1])
-    return found
+def lint_imports(root: Path) -> subprocess.CompletedProcess:
+    """``lint-imports`` on the ``hybridhyst`` package found under ``root`` with ``root``'s pyproject.toml."""
+    env = {"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin", "HOME": str(root)}
+    code = "import sys; from importlinter.cli import lint_imports_command; sys.exit(lint_imports_command())"
+    return subprocess.run([sys.executable, "-c", code, "--config", str(root / "pyproject.toml"), "--no-cache"],
+                          cwd=root, env=env, capture_output=True, text=True, timeout=300)
 
 
-def _modules(package: str) -> list[Path]:
-    root = PACKAGE / package
-    return sorted(root.rglob("*.py")) if root.is_dir() else [PACKAGE / f"{package}.py"]
+def _copy_sources(dest: Path) -> Path:
+    shutil.copy(ROOT / "pyproject.toml", dest / "pyproject.toml")
+    shutil.copytree(ROOT / "hybridhyst", dest / "hybridhyst", ignore=shutil.ignore_patterns("files", "__pycache__"))
+    return dest
 
 
-@pytest.mark.parametrize("package", sorted(FORBIDDEN))
-def test_lower_packages_do_not_import_upwards(package):
-    bad = {str(p.relative_to(PACKAGE)): sorted(imported_packages(p) & FORBIDDEN[package]) for p in _modules(package)}
-    assert not {k: v for k, v in bad.items() if v}, f"{package}/ imports upwards: {bad}"
+def test_the_package_keeps_its_layers():
+    result = lint_imports(ROOT)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
+    assert "Contracts: 1 kept, 0 broken." in result.stdout
 
 
-def test_the_checker_sees_relative_and_absolute_imports(tmp_path):
-    probe = PACKAGE / "discover" / "_probe_layers.py"
-    probe.write_text("from ..cli.common import atomic_write\n\n\ndef f():\n    import hybridhyst.training.base\n")
-    try:
-        assert {"cli", "training"} <= imported_packages(probe)
-    finally:
-        probe.unlink()
+@pytest.mark.parametrize("module, line", [
+    ("data/_probe.py", "def f():\n    from ..simulate import simulate\n"),  # upward, inside a function
+    ("physics/_probe.py", "import hybridhyst.cli.common\n"),  # absolute, from the bottom to the top
+    ("nets/_probe.py", "from ..analysis import rmse\n"),  # between independent layers
+])
+def test_a_wrong_import_breaks_the_contract(tmp_path, module, line):
+    root = _copy_sources(tmp_path)
+    (root / "hybridhyst" / module).write_text(line)
+    result = lint_imports(root)
+    assert result.returncode != 0 and "BROKEN" in result.stdout, result.stdout[-3000:]
+    assert f"hybridhyst.{module[:-3].replace('/', '.')}" in result.stdout

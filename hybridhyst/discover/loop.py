@@ -25,6 +25,7 @@ from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
+from ..nets import MLP
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
 from ..simulate import simulate
@@ -329,8 +330,7 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
     rs = R.std() or 1.0
     g = torch.Generator().manual_seed(seed)
     torch.manual_seed(seed)
-    net = torch.nn.Sequential(torch.nn.Linear(X.shape[1], 32), torch.nn.Tanh(), torch.nn.Linear(32, 32),
-                              torch.nn.Tanh(), torch.nn.Linear(32, 1)).double()
+    net = MLP(X.shape[1], 1, hidden=[32, 32], zero_last=False).double()
     opt = torch.optim.Adam(net.parameters(), lr=1e-2)
     Xt, Rt = torch.as_tensor((X - mu) / sd), torch.as_tensor(R / rs)
     for _ in range(steps):

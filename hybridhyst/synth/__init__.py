@@ -3,7 +3,9 @@
 * ``load_vpptd``: torque–angle loops of seed 001's modified Bouc–Wen damper (Table 1), registered as the
   built-in dataset ``"vpptd"`` (``hybridhyst.data.load_builtin("vpptd", ...)``);
 * ``seed001``: the rig of seed 001 run in free vibration and under an underpressure schedule, and the
-  identifiable combinations of its damper law.
+  identifiable combinations of its damper law;
+* ``effects``: records with one undeclared library effect, made by the library's own effects and simulator:
+  quick unit tests of the discovery loop's mechanics (an "inverse crime", never evidence of discovery).
 
 Data for testing identification and discovery is *not* made here: ``hybridhyst.testbed`` has generators
 that share no code with the library's models or simulator.
