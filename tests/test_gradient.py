@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 import torch
 
+from hybridhyst.data.decimate import decimate
 from hybridhyst.data.records import Record
-from hybridhyst.identify.gradient import decimate, fit_gradient
+from hybridhyst.identify.gradient import fit_gradient
 from hybridhyst.physics.effects import EFFECTS, Coulomb, Viscous
 from hybridhyst.physics.models import Constitutive
 from hybridhyst.simulate import simulate

@@ -15,7 +15,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-from ..data.datamodule import decimation_factors
+from ..data.decimate import decimation_factors
 from ..data.records import RecordSet
 from ..data.splits import Split
 from ..discover import discover

@@ -17,8 +17,8 @@ import pandas as pd
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from ..data.datamodule import decimation_factors
-from ..identify.gradient import decimate, fit_gradient
+from ..data.decimate import decimate, decimation_factors
+from ..identify.gradient import fit_gradient
 from ..simulate import simulate
 from .common import (
     CONF_DIR,

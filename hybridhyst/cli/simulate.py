@@ -15,7 +15,7 @@ import pandas as pd
 import torch
 from omegaconf import DictConfig
 
-from ..identify.gradient import decimate
+from ..data.decimate import decimate
 from ..simulate import simulate
 from .common import (
     CONF_DIR,

@@ -27,23 +27,10 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
+from .decimate import decimate_all, decimation_factors
 from .records import Record, RecordSet
 
-__all__ = ["Normaliser", "RecordDataModule", "condition_label", "decimation_factors", "prepare_record"]
-
-
-def decimation_factors(records, samples_per_cycle: int | None, downsample: int,
-                       frequency: str = "frequency_hz") -> dict[str, int]:
-    """Per-record decimation: about ``samples_per_cycle`` samples per loading cycle when the record has a
-    positive ``frequency`` condition (slow tests thin out more), else every ``downsample``-th sample."""
-    out = {}
-    for r in records:
-        f = r.conditions.get(frequency)
-        if samples_per_cycle and isinstance(f, numbers.Number) and f > 0:
-            out[r.name] = max(1, round(1.0 / (r.dt * f * samples_per_cycle)))
-        else:
-            out[r.name] = max(1, int(downsample))
-    return out
+__all__ = ["Normaliser", "RecordDataModule", "condition_label", "prepare_record"]
 
 
 def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
@@ -57,8 +44,7 @@ def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
 
 def prepare_record(record: Record, factor: int = 1) -> dict[str, np.ndarray]:
     """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64)."""
-    r = record.slice(step=factor) if factor > 1 else record
-    r.require_samples(3, "training (after decimation)")
+    (r,) = decimate_all([record], factor, "training")
     t = np.asarray(r.t, dtype=np.float64) - float(r.t[0])
     u = np.asarray(r.x, dtype=np.float64)
     du = np.gradient(u, t, edge_order=2)

@@ -17,12 +17,13 @@ from dataclasses import dataclass, field
 import torch
 from torch import nn
 
+from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
 from ..physics.parameters import project_to_bounds
 from ..progress import progress as progress_bar
 from ..simulate import simulate
 
-__all__ = ["FitResult", "decimate", "fit_gradient", "record_loss"]
+__all__ = ["FitResult", "fit_gradient", "record_loss"]
 
 _LOSSES = ("mse", "mae")
 _MAX_RETRIES = 6
@@ -50,32 +51,6 @@ class FitResult:
     n_samples: int = 0
     evaluations: int = 0
     wall_s: float = 0.0
-
-
-def decimate(record: Record, factor: int) -> Record:
-    """Every ``factor``-th sample of ``record`` (no filtering: hysteresis loops are smooth at this scale).
-
-    Parameters
-    ----------
-    record : the record to thin out.
-    factor : keep samples 0, factor, 2·factor, ...; 1 returns the record unchanged.
-    """
-    factor = int(factor)
-    if factor < 1:
-        raise ValueError(f"record {record.name!r}: decimation factor must be >= 1, got {factor}")
-    if factor == 1:
-        return record
-    return record.slice(step=factor)
-
-
-def _decimate_all(records: Sequence[Record], downsample: int | Mapping[str, int]) -> list[Record]:
-    out = []
-    for r in records:
-        factor = downsample.get(r.name, 1) if isinstance(downsample, Mapping) else downsample
-        d = decimate(r, factor)
-        d.require_samples(3, "gradient fitting (after decimation)")
-        out.append(d)
-    return out
 
 
 def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], loss: str = "mse") -> torch.Tensor:
@@ -228,7 +203,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     if not records:
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
-    data = _decimate_all(records, downsample)
+    data = decimate_all(records, downsample, "gradient fitting")
     sim_kwargs = {"method": method, "substeps": substeps, "input_channels": tuple(input_channels), "backend": backend}
     obj = _Objective(model, data, loss, sim_kwargs)
     history: list[float] = []

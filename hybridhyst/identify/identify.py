@@ -17,11 +17,11 @@ import torch
 from torch import nn
 
 from ..data.batch import numeric_conditions, record_batches
+from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
 from ..simulate import simulate
 from ..simulate.inputs import with_rates
 from .fisher import FisherReport, fisher_analysis, output_jacobian
-from .gradient import _decimate_all
 from .refine import levenberg_marquardt
 from .refine import refine as refine_rows
 from .search import cma_es, differential_evolution, grid_search, monte_carlo, safe_costs
@@ -275,8 +275,8 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
     problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
     coarse = problem
     if int(search_decimate) != 1:
-        coarse = RecordsProblem(space, _decimate_all(records, int(search_decimate)), input_channels, ode_method,
-                                substeps, backend)
+        coarse = RecordsProblem(space, decimate_all(records, int(search_decimate), "identification"),
+                                input_channels, ode_method, substeps, backend)
     if target is None and noise_sd:
         target = (1.01 * noise_sd) ** 2
     mode = {True: "lm", False: "none", None: "none"}.get(refine, refine)
