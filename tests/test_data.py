@@ -338,3 +338,20 @@ def test_warmup_is_validated_and_follows_slices():
     assert rec.slice(step=2).warmup == 5 and rec.slice(4).warmup == 6 and rec.slice(20).warmup == 0
     with pytest.raises(ValueError, match="warmup must be in"):
         Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=100)
+
+
+def test_with_noise_is_the_one_noise_injection():
+    t = np.arange(20000) * 0.01
+    rec = Record("r", t=t, x=np.sin(t), y=np.cos(t), units={"x": "deg", "y": "Nm"})
+    noisy = rec.with_noise(0.2, [3, 1])
+    e = noisy.y - rec.y
+    assert abs(e.std() - 0.2) < 0.01 and abs(e.mean()) < 0.01
+    assert np.array_equal(rec.with_noise(0.2, [3, 1]).y, noisy.y)  # the key alone fixes the noise
+    assert not np.array_equal(rec.with_noise(0.2, [3, 2]).y, noisy.y)
+    assert np.array_equal(noisy.x, rec.x) and noisy.units == rec.units and "noise sd 0.2" in noisy.source
+    g = np.random.default_rng(5)  # a generator's stream continues from record to record
+    a, b = rec.with_noise(0.1, g), rec.with_noise(0.1, g)
+    assert not np.array_equal(a.y, b.y)
+    assert rec.with_noise(0.0, 1) is rec
+    with pytest.raises(ValueError, match="record 'r': noise sd must be a non-negative"):
+        rec.with_noise(-0.1, 0)

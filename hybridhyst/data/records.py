@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -147,6 +149,20 @@ class Record:
             units=self.units, extra={k: v[sl] for k, v in self.extra.items()}, source=self.source,
             warmup=min(warmup, max(len(t) - 1, 0)),
         )
+
+    def with_noise(self, sd: float, seed) -> Record:
+        """This record with white Gaussian noise of standard deviation ``sd`` (in y's unit) added to ``y``.
+
+        ``seed`` is anything ``numpy.random.default_rng`` takes: an int or a sequence of ints (a record's
+        noise then depends only on it), or a ``Generator`` (its stream continues). ``sd`` = 0 adds nothing.
+        """
+        sd = float(sd)
+        if not (math.isfinite(sd) and sd >= 0):
+            raise ValueError(f"record {self.name!r}: noise sd must be a non-negative number, got {sd!r}")
+        if sd == 0:
+            return self
+        y = self.y + np.random.default_rng(seed).normal(0.0, sd, size=len(self))
+        return dataclasses.replace(self, y=y, source=f"{self.source}; + noise sd {sd:g}".lstrip("; "))
 
     def require_samples(self, n: int, what: str = "this model") -> None:
         if len(self) < n:

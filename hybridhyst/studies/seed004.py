@@ -108,10 +108,9 @@ def _case(opts: dict, case: dict, progress: bool) -> dict:
     t, x = _excitation(opts)
     truth = {s: float(case[s]) for s in (*SHAPE, "k")}
     clean = _force(_model(opts, {s: truth[s] for s in SHAPE}, truth["k"]), t, x)
-    noise = np.random.default_rng([int(opts["seed"]), round(1e4 * float(case["p"]))]).normal(
-        0.0, float(opts["noise_sd"]), len(t))
-    rec = Record(name=f"p{case['p']:g}", t=t, x=x, y=clean + noise, conditions={"pressure_mpa": float(case["p"])},
+    rec = Record(name=f"p{case['p']:g}", t=t, x=x, y=clean, conditions={"pressure_mpa": float(case["p"])},
                  units={"t": "s", "x": "mm", "y": "N"}, source="synthetic: seed 004 caption parameters, assumed k")
+    rec = rec.with_noise(float(opts["noise_sd"]), [int(opts["seed"]), round(1e4 * float(case["p"]))])
     grid_values, found, grid_wall = _grid(opts, rec, truth, progress)
     id_values, fit = _identify(opts, rec, truth)
     grid_force = _force(_model(opts, {s: grid_values[s] for s in SHAPE}, truth["k"]), t, x)

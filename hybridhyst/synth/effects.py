@@ -105,7 +105,6 @@ def make_records(extra: str | None, noise_sd: float = 0.02, samples_per_cycle: i
         x = amp * np.sin(2 * np.pi * f * t)
         with torch.no_grad():
             y = simulate(model, torch.as_tensor(x)[None], t=torch.as_tensor(t), substeps=8)[0, :, 0].numpy()
-        out.append(Record(name=f"sine_{amp:g}{units['x']}_{f:g}Hz", t=t, x=x,
-                          y=y + noise_sd * rng.standard_normal(len(t)),
-                          conditions={amplitude: amp, "frequency_hz": f}, units=units))
+        out.append(Record(name=f"sine_{amp:g}{units['x']}_{f:g}Hz", t=t, x=x, y=y,
+                          conditions={amplitude: amp, "frequency_hz": f}, units=units).with_noise(noise_sd, rng))
     return RecordSet(out, f"synthetic base+{extra}")

@@ -112,15 +112,10 @@ def load_vpptd(mixtures=None, pressures=None, cycles: int = 3, samples_per_cycle
         torque = _simulate(mixture, tuple(pressures), n, int(samples_per_cycle), float(frequency_hz),
                            float(amplitude_deg), int(substeps))
         for p, y in zip(pressures, torque, strict=True):
-            y = y.copy()
-            if noise_sd > 0:
-                rng = np.random.default_rng([int(seed), MIXTURES.index(mixture), round(p * 1e4)])
-                y = y + rng.normal(0.0, noise_sd, size=n)
             conditions = {"mixture": mixture, "pressure_mpa": p, "frequency_hz": float(frequency_hz),
                           "amplitude_deg": float(amplitude_deg)}
-            records.append(Record(
-                name=f"{mixture}_p{p:g}", t=t.copy(), x=x.copy(), y=y, conditions=conditions,
-                units={"t": "s", "x": "deg", "y": "Nm"},
-                source=f"synthetic: modified_bouc_wen({mixture!r}), seed 001 Table 1, noise_sd={noise_sd} Nm",
-            ))
+            record = Record(name=f"{mixture}_p{p:g}", t=t.copy(), x=x.copy(), y=y.copy(), conditions=conditions,
+                            units={"t": "s", "x": "deg", "y": "Nm"},
+                            source=f"synthetic: modified_bouc_wen({mixture!r}), seed 001 Table 1")
+            records.append(record.with_noise(noise_sd, [int(seed), MIXTURES.index(mixture), round(p * 1e4)]))
     return RecordSet(records, name="vpptd")
