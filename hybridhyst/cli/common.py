@@ -125,14 +125,15 @@ def split_options(cfg: DictConfig, keys: tuple[str, ...] = SPLIT_KEYS) -> dict:
     return out
 
 
-def load_records(cfg: DictConfig, select=None):
-    """The records of ``cfg.data`` (instantiated) that match ``select`` (``split.select``: a mapping, a list of
-    mappings, or None for every record). A selection that leaves no record is a ``ValueError``."""
+def load_records(cfg: DictConfig, select=None, where: str = "split.select"):
+    """The records of ``cfg.data`` (instantiated) that match ``select`` (``where``, e.g. ``split.select``: a
+    mapping, a list of mappings, or None for every record): the one load-select-check path of the apps.
+    A selection that leaves no record is a ``ValueError`` naming ``where``."""
     records = instantiate(cfg.data, _convert_="all")
     if select:
         records = records.select(select)
     if len(records) == 0:
-        raise ValueError(f"split.select {select} leaves no records of {records.name!r}")
+        raise ValueError(f"{where} {select} leaves no records of {records.name!r}")
     return records
 
 

@@ -24,6 +24,7 @@ from .common import (
     guarded,
     hydra_entry,
     instantiate,
+    load_records,
     prepare_run_dir,
     to_plain,
     torch_settings,
@@ -80,10 +81,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
 
     select = to_plain(cfg.input.select)  # a mapping {condition: value or [values]}, as split.select elsewhere
     downsample = int(cfg.input.downsample)
-    records = instantiate(cfg.data, _convert_="all")
-    records = [decimate(r, downsample) for r in (records.select(select) if select else records)]
-    if not records:
-        raise ValueError(f"input.select {select} leaves no records to simulate")
+    records = [decimate(r, downsample) for r in load_records(cfg, select, where="input.select")]
     solver = cfg.solver
     with torch.no_grad():
         preds = simulate(model, records, method=solver.method, substeps=int(solver.substeps), backend=solver.backend)
