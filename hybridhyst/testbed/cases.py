@@ -32,6 +32,24 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import generators as g
+from .laws import (
+    VPPTD_SPLIT,
+    bw_law,
+    clearance_law,
+    dahl_law,
+    drift_law,
+    lugre_law,
+    maxwell_law,
+    on_fine,
+    osc_law,
+    p_const,
+    p_exp,
+    p_linear,
+    play_law,
+    rough_law,
+    static_law,
+    vpptd_records,
+)
 
 __all__ = ["CASES", "CASE_BY_NAME", "CATEGORIES", "FAST_CASES", "Case", "ALIASES"]
 
@@ -110,16 +128,6 @@ def _sine_tests(tests: Sequence[tuple[float, float]], spc: int, cycles: float, a
     return out
 
 
-def _on_fine(law_fine, refine: int = 20):
-    """A law computed on a grid ``refine`` times finer than the samples (path operators), then sampled."""
-
-    def law(t, sig):
-        tf = g.fine_grid(t, refine)
-        return law_fine(tf, sig)[::refine]
-
-    return law
-
-
 def _damper(effects: dict, name: str = "nominal"):
     from ..physics.build import build_model
 
@@ -161,7 +169,7 @@ FREQ_SPLIT = {"held_out": {"amplitude_in": [1.5]}, "val": {"amplitude_in": [0.75
 
 
 def _sine_records(name, tests, law, *, spc, cycles, noise, phi=None, seed=0, refine=None):
-    law = _on_fine(law, refine) if refine else law
+    law = on_fine(law, refine) if refine else law
     return _records(name, _sine_tests(tests, spc, cycles), law, noise, phi, seed, {"x": "in", "y": "kip"})
 
 
@@ -169,157 +177,6 @@ def _osc_records(name, tests, law, *, spc, cycles, noise, phi=None, seed=0):
     """Oscillators are driven by a force u = A sin 2πft from rest (x = ẋ = 0)."""
     return _records(name, _sine_tests(tests, spc, cycles, amplitude_key="amplitude_kip", phase=0.0, prefix="drive"),
                     law, noise, phi, seed, {"x": "kip", "y": "in"})
-
-
-# -- the laws (closures over their true values, computed by generators) ----------------------------------------
-
-
-def _static(k=0.0, c=0.0, Fc=0.0, sign="exact", width=0.0, k3=0.0, dF=0.0, dFs=0.0, vs=1.0, m=0.0, tau=0.0,
-            cog=(0.0, 1.0)):
-    """F = k x + k3 x³ + c v + (Fc + dFs e^{−(v/vs)²}) s + dF |s| + m a + cogging, all read τ late."""
-
-    def law(t, sig):
-        td = np.asarray(t) - tau
-        x, v, a = sig.x(td), sig.v(td), sig.a(td)
-        s = g.sgn(v, sign, width)
-        level = Fc + dFs * np.exp(-((v / vs) ** 2))
-        return k * x + k3 * x**3 + c * v + level * s + dF * np.abs(s) + m * a + g.cogging(x, *cog)
-
-    return law
-
-
-def _play_law(r, k, c, Fc=0.0, k3=0.0, sign="exact", velocity_scale=1.0, stribeck=(0.0, 1.0)):
-    """Forces on the exact play output y: k y + k3 y³ + c s ẏ + (Fc + dFs e^{−(ẏ/vs)²}) sgn ẏ."""
-
-    def fine(tf, sig):
-        x, v = sig.x(tf), sig.v(tf)
-        y = g.play(x, r)
-        dy = g.play_rate(x, v, y, r)
-        level = Fc + stribeck[0] * np.exp(-((dy / stribeck[1]) ** 2))
-        return k * y + k3 * y**3 + c * velocity_scale * dy + level * g.sgn(dy, sign)
-
-    return fine
-
-
-def _dahl_law(k, c, sigma0, Fc, drift=0.0, sign="erf", width=0.02):
-    def fine(tf, sig):
-        x, v = sig.x(tf), sig.v(tf)
-        z = g.dahl_exact(x, sigma0, Fc)
-        out = k * x + c * v + sigma0 * z
-        if drift:
-            out = out + drift * g.cumulative_travel(x) * g.sgn(v, sign, width)
-        return out
-
-    return fine
-
-
-def _drift_law(k, c, Fc, dF, sign="arctan", width=0.01):
-    def fine(tf, sig):
-        x, v = sig.x(tf), sig.v(tf)
-        return k * x + c * v + (Fc + dF * g.cumulative_travel(x)) * g.sgn(v, sign, width)
-
-    return fine
-
-
-def _bw_law(k, c, Fy, xy, n, b):
-    def law(t, sig):
-        return k * sig.x(t) + c * sig.v(t) + g.bouc_wen_yield(t, sig, Fy, xy, n, b)
-
-    return law
-
-
-def _lugre_law(k, c, **lugre):
-    def law(t, sig):
-        return k * sig.x(t) + c * sig.v(t) + g.lugre(t, sig, **lugre)
-
-    return law
-
-
-def _clearance_law(k, c, r, sigma0, Fc_pos, Fc_neg):
-    """k x + c v + a Dahl element behind a gap of half-width r (exact per step on the refined path)."""
-
-    def fine(tf, sig):
-        x = sig.x(tf)
-        return k * x + c * sig.v(tf) + g.clearance_dahl(x, r, sigma0, Fc_pos, Fc_neg)
-
-    return fine
-
-
-def _rough_law(k, c, Fc, depth, period, sign="arctan", width=0.01):
-    """k x + c v + Fc (1 + depth cos(2π x / period)) sgn(v): a sliding level that varies along the stroke."""
-
-    def law(t, sig):
-        x, v = sig.x(t), sig.v(t)
-        return k * x + c * v + Fc * (1 + depth * np.cos(2 * math.pi * x / period)) * g.sgn(v, sign, width)
-
-    return law
-
-
-def _maxwell_law(k, c, km, cm):
-    def fine(tf, sig):
-        v = sig.v(tf)
-        return k * sig.x(tf) + c * v + g.maxwell_force(tf, v, km, cm)
-
-    return fine
-
-
-def _osc_law(m, c, k, xi=0.0, k3=0.0, Fc=0.0, width=0.02, method="DOP853"):
-    def extra(x, v, u):
-        return xi * np.abs(x) * u + k3 * x**3 + Fc * g.sgn(v, "arctan", width)
-
-    def law(t, drive):
-        return g.oscillator(t, drive, m, c, k, extra if (xi or k3 or Fc) else None, method=method)
-
-    return law
-
-
-# -- VPPTD (seed 000) ---------------------------------------------------------------------------------------------
-
-PRESSURES = [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09]
-VPPTD_SPLIT = {"held_out": {"pressure_mpa": [0.05, 0.09]}, "val": {"pressure_mpa": [0.07]}}
-RAD = math.pi / 180.0
-
-
-def _lin(v0, v1):
-    """A parameter rising linearly from v0 at 0.01 MPa to v1 at 0.09 MPa."""
-    return lambda p: v0 + (v1 - v0) * (p - 0.01) / 0.08
-
-
-def _exp(v0, v1):
-    """A parameter rising exponentially from v0 at 0.01 MPa to v1 at 0.09 MPa."""
-    return lambda p: v0 * (v1 / v0) ** ((p - 0.01) / 0.08)
-
-
-def _const(v):
-    return lambda p: v
-
-
-def _vpptd_records(name, c, k, k2, Ms, *, clearance=0.0, stribeck=(0.0, 1.0), tau=0.0, phase=0.0, seed=0,
-                   noise=0.2):
-    """±10° at 0.8 Hz, 400 Hz sampling (500 samples per cycle, one cycle), at each underpressure; φ in deg,
-    φ̇ in rad/s in the viscous term, torque in Nm; exact sign; optional exact play on the angle (mounting
-    clearance), Stribeck weakening (dFs [Nm], vs [deg/s]) and a delay τ [s] of the measured torque; ``phase``
-    −π/2 starts the test from rest at −10° (what a delayed channel needs: the rig is at rest before t = 0)."""
-    from ..data.records import Record, RecordSet
-
-    rng = np.random.default_rng(seed)
-    out = []
-    for p in PRESSURES:
-        t = np.arange(501) / 400.0
-        sig = g.sine(10.0, 0.8, phase=phase)
-        cp, kp, k2p, Mp = c(p), k(p), k2(p), Ms(p)
-        if clearance:
-            law = _on_fine(_play_law(clearance, kp, cp, Mp, k3=k2p, velocity_scale=RAD, stribeck=stribeck), 20)
-        else:
-            def law(tt, s, cp=cp, kp=kp, k2p=k2p, Mp=Mp):
-                td = tt - tau
-                x, v = s.x(td), s.v(td)
-                level = Mp + stribeck[0] * np.exp(-((v / stribeck[1]) ** 2))
-                return cp * RAD * v + kp * x + k2p * x**3 + level * g.sgn(v, "exact")
-        y = law(t, sig) + g.white_noise(len(t), noise, rng)
-        out.append(Record(name=f"p{p:.2f}MPa", t=t, x=sig.x(t), y=y, conditions={"pressure_mpa": p},
-                          units={"x": "deg", "y": "Nm"}))
-    return RecordSet(out, name)
 
 
 def _vpptd_nominal():
@@ -342,57 +199,57 @@ def _build_cases() -> list[Case]:
     add = cases.append
     # ---------------------------------------------------------------- single
     add(_case("viscous", "single", [{"viscous"}], [("viscous.c", 0.25, 0.10)], 0.03,
-              lambda: _sine_records("viscous", STD, _static(k=2.0, c=0.25, Fc=0.5, sign="algebraic", width=0.02),
+              lambda: _sine_records("viscous", STD, static_law(k=2.0, c=0.25, Fc=0.5, sign="algebraic", width=0.02),
                                     spc=100, cycles=2, noise=0.03, seed=1),
               lambda: _damper({"spring": _spring(1.5), "coulomb": _coul(0.3)}), STD_SPLIT,
               "2x + 0.25v + 0.5 v/√(v²+0.02²); nominal spring + Coulomb", "100"))
     add(_case("coulomb", "single", [COULOMB], [("coulomb.Fc", 0.5, 0.10)], 0.03,
-              lambda: _sine_records("coulomb", STD, _static(k=2.0, c=0.2, Fc=0.5), spc=200, cycles=1.5, noise=0.03,
+              lambda: _sine_records("coulomb", STD, static_law(k=2.0, c=0.2, Fc=0.5), spc=200, cycles=1.5, noise=0.03,
                                     phi=0.6, seed=2),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3)}), STD_SPLIT,
               "2x + 0.2v + 0.5 sign(v) (exact); nominal spring + viscous", "200", "AR(1) 0.6"))
     add(_case("asymmetric_coulomb", "single", [{"asymmetric_coulomb"}], [("asymmetric_coulomb.dF", 0.2, 0.15)], 0.03,
               lambda: _sine_records("asymmetric_coulomb", STD,
-                                    _static(k=2.0, c=0.2, Fc=0.6, dF=0.2, sign="arctan", width=0.01),
+                                    static_law(k=2.0, c=0.2, Fc=0.6, dF=0.2, sign="arctan", width=0.01),
                                     spc=100, cycles=2, noise=0.03, seed=3),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3)}), STD_SPLIT,
               "2x + 0.2v + levels +0.8/−0.4 (arctan sign); nominal spring + viscous", "100"))
     add(_case("stribeck", "single", [{"stribeck"}], [("stribeck.dFs", 0.5, 0.20)], 0.03,
               lambda: _sine_records("stribeck", SLOW,
-                                    _static(k=2.0, c=0.2, Fc=0.4, dFs=0.5, vs=1.0, sign="erf", width=0.02),
+                                    static_law(k=2.0, c=0.2, Fc=0.4, dFs=0.5, vs=1.0, sign="erf", width=0.02),
                                     spc=150, cycles=2, noise=0.03, seed=4),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "2x + 0.2v + (0.4 + 0.5 e^{−(v/1)²}) erf(v/0.02); nominal spring + viscous + Coulomb", "150"))
     add(_case("linear_stiffness", "single", [{"linear_stiffness"}], [("linear_stiffness.k", 1.5, 0.05)], 0.03,
-              lambda: _sine_records("linear_stiffness", STD, _static(k=1.5, k3=0.3, c=0.3), spc=20, cycles=4,
+              lambda: _sine_records("linear_stiffness", STD, static_law(k=1.5, k3=0.3, c=0.3), spc=20, cycles=4,
                                     noise=0.03, seed=5),
               lambda: _damper({"viscous": _visc(0.4), "cubic": {"effect": "cubic_stiffness", "k3": 0.5}}), STD_SPLIT,
               "1.5x + 0.3x³ + 0.3v; nominal viscous + cubic spring", "20"))
     add(_case("cubic_stiffness", "single", [{"cubic_stiffness"}], [("cubic_stiffness.k3", 0.8, 0.10)], 0.05,
-              lambda: _sine_records("cubic_stiffness", STD, _static(k=1.0, k3=0.8, c=0.2), spc=25, cycles=3,
+              lambda: _sine_records("cubic_stiffness", STD, static_law(k=1.0, k3=0.8, c=0.2), spc=25, cycles=3,
                                     noise=0.05, seed=6),
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), STD_SPLIT,
               "x + 0.8x³ + 0.2v; nominal spring + viscous", "25"))
     add(_case("bouc_wen", "single", [{"bouc_wen"}], [("bouc_wen.k", 0.8 / 0.25, 0.25)], 0.03,
-              lambda: _sine_records("bouc_wen", SMALL, _bw_law(1.0, 0.2, Fy=0.8, xy=0.25, n=2.0, b=0.5), spc=150,
+              lambda: _sine_records("bouc_wen", SMALL, bw_law(1.0, 0.2, Fy=0.8, xy=0.25, n=2.0, b=0.5), spc=150,
                                     cycles=2, noise=0.03, phi=0.5, seed=7),
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), SMALL_SPLIT,
               "x + 0.2v + Bouc–Wen yield form Fy 0.8, xy 0.25, n 2, b ½ (LSODA); k = 3.2, β = γ = 8",
               "150", "AR(1) 0.5"))
     add(_case("dahl", "single", [DAHL], [("dahl.Fc", 0.6, 0.10)], 0.03,
-              lambda: _sine_records("dahl", SMALL, _dahl_law(2.0, 0.2, sigma0=8.0, Fc=0.6), spc=100, cycles=2,
+              lambda: _sine_records("dahl", SMALL, dahl_law(2.0, 0.2, sigma0=8.0, Fc=0.6), spc=100, cycles=2,
                                     noise=0.03, seed=8, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3)}), SMALL_SPLIT,
               "2x + 0.2v + Dahl σ0 8, Fc 0.6 (exact in displacement); nominal spring + viscous", "100"))
     add(_case("lugre", "single", [{"lugre"}], [("lugre.Fc", 0.4, 0.15), ("lugre.Fs", 0.8, 0.20)], 0.03,
               lambda: _sine_records("lugre", SMALL[:2] + SMALL[3:5],
-                                    _lugre_law(2.0, 0.2, sigma0=30.0, sigma1=0.2, sigma2=0.0, Fc=0.4, Fs=0.8, vs=1.0),
+                                    lugre_law(2.0, 0.2, sigma0=30.0, sigma1=0.2, sigma2=0.0, Fc=0.4, Fs=0.8, vs=1.0),
                                     spc=1000, cycles=1, noise=0.03, seed=9),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3)}),
               {"held_out": {"amplitude_in": [1.2]}, "val": {"amplitude_in": [0.6]}},
               "2x + 0.2v + LuGre σ0 30, σ1 0.2, Fc 0.4, Fs 0.8, vs 1 (LSODA); nominal spring + viscous", "1000"))
     add(_case("backlash", "single", [{"backlash"}], [("backlash.r", 0.1, 0.15)], 0.03,
-              lambda: _sine_records("backlash", STD, _play_law(0.1, 2.0, 0.3), spc=200, cycles=1.5, noise=0.03,
+              lambda: _sine_records("backlash", STD, play_law(0.1, 2.0, 0.3), spc=200, cycles=1.5, noise=0.03,
                                     seed=10, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2)}), STD_SPLIT,
               "exact play r 0.1 in, then 2y + 0.3ẏ; nominal spring + viscous", "200"))
@@ -403,30 +260,30 @@ def _build_cases() -> list[Case]:
               "multisine 0.5–3 Hz (faded in): 2x + 0.3v + 0.006 ẍ; nominal spring + viscous",
               "33–200 (multisine)"))
     add(_case("attenuation", "single", [{"attenuation"}], [("attenuation.xi", 0.8, 0.10)], 0.005,
-              lambda: _osc_records("attenuation", OSC, _osc_law(0.005, 0.02, 2.0, xi=0.8), spc=100, cycles=2,
+              lambda: _osc_records("attenuation", OSC, osc_law(0.005, 0.02, 2.0, xi=0.8), spc=100, cycles=2,
                                    noise=0.005, seed=12),
               lambda: _oscillator({"viscous": _visc(0.03), "spring": _spring(1.5)}, mass=0.004), OSC_SPLIT,
               "oscillator 0.005ẍ + 0.02ẋ + 2x + 0.8|x|u = u (DOP853); nominal linear oscillator", "100"))
     add(_case("time_delay", "single", [{"time_delay"}], [("time_delay.tau", 0.015, 0.15)], 0.03,
               lambda: _sine_records("time_delay", STD,
-                                    _static(k=2.0, c=0.3, Fc=0.5, sign="algebraic", width=0.05, tau=0.015),
+                                    static_law(k=2.0, c=0.3, Fc=0.5, sign="algebraic", width=0.05, tau=0.015),
                                     spc=100, cycles=2, noise=0.03, seed=13),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
               "force read 15 ms late: 2x + 0.3v + 0.5 v/√(v²+0.05²)", "100"))
     add(_case("travel_drift", "single", [{"travel_drift"}], [("travel_drift.dF", 0.04, 0.15)], 0.03,
-              lambda: _sine_records("travel_drift", STD, _drift_law(2.0, 0.2, 0.4, 0.04), spc=100, cycles=3,
+              lambda: _sine_records("travel_drift", STD, drift_law(2.0, 0.2, 0.4, 0.04), spc=100, cycles=3,
                                     noise=0.03, seed=14, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "2x + 0.2v + (0.4 + 0.04 s) arctan sign, s = travel; nominal spring + viscous + Coulomb", "100"))
     add(_case("maxwell", "single", [{"maxwell"}], [("maxwell.k_m", 2.0, 0.15), ("maxwell.tau", 0.1, 0.15)], 0.03,
-              lambda: _sine_records("maxwell", FREQS, _maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2,
+              lambda: _sine_records("maxwell", FREQS, maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2,
                                     noise=0.03, phi=0.5, seed=52, refine=10),
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), FREQ_SPLIT,
               "1.5x + 0.1v + Maxwell (k_m 2 in series with c_m 0.2, τ 0.1 s; exact exponential integrator); "
               "nominal spring + viscous", "100", "AR(1) 0.5"))
     # levels 0.5 (v > 0) and 0.7 (v < 0): the library's Fc (1 ± a) with Fc 0.6, a = −1/6
     add(_case("clearance", "single", [{"clearance"}], [("clearance.r", 0.06, 0.20)], 0.03,
-              lambda: _sine_records("clearance", STD, _clearance_law(2.0, 0.3, r=0.06, sigma0=15.0, Fc_pos=0.5,
+              lambda: _sine_records("clearance", STD, clearance_law(2.0, 0.3, r=0.06, sigma0=15.0, Fc_pos=0.5,
                                                                      Fc_neg=0.7),
                                     spc=150, cycles=2, noise=0.03, seed=15, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2),
@@ -436,65 +293,65 @@ def _build_cases() -> list[Case]:
     # ---------------------------------------------------------------- pair
     add(_case("backlash+coulomb", "pair", [{"backlash"}, COULOMB],
               [("backlash.r", 0.08, 0.20), ("coulomb.Fc", 0.4, 0.15)], 0.03,
-              lambda: _sine_records("backlash+coulomb", STD, _play_law(0.08, 2.0, 0.3, Fc=0.4), spc=200, cycles=1.5,
+              lambda: _sine_records("backlash+coulomb", STD, play_law(0.08, 2.0, 0.3, Fc=0.4), spc=200, cycles=1.5,
                                     noise=0.03, seed=21, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2)}), STD_SPLIT,
               "exact play r 0.08, then 2y + 0.3ẏ + 0.4 sign(ẏ); nominal spring + viscous", "200"))
     add(_case("stribeck+cubic", "pair", [{"stribeck"}, {"cubic_stiffness"}],
               [("stribeck.dFs", 0.4, 0.25), ("cubic_stiffness.k3", 0.6, 0.10)], 0.03,
               lambda: _sine_records("stribeck+cubic", SLOW,
-                                    _static(k=1.0, k3=0.6, c=0.2, Fc=0.4, dFs=0.4, vs=1.0, sign="erf", width=0.02),
+                                    static_law(k=1.0, k3=0.6, c=0.2, Fc=0.4, dFs=0.4, vs=1.0, sign="erf", width=0.02),
                                     spc=120, cycles=2, noise=0.03, phi=0.7, seed=22),
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "x + 0.6x³ + 0.2v + (0.4 + 0.4 e^{−v²}) erf sign; nominal spring + viscous + Coulomb", "120",
               "AR(1) 0.7"))
     add(_case("dahl+travel_drift", "pair", [DAHL, {"travel_drift"}],
               [("dahl.Fc", 0.5, 0.15), ("travel_drift.dF", 0.05, 0.20)], 0.03,
-              lambda: _sine_records("dahl+travel_drift", SMALL, _dahl_law(2.0, 0.2, 10.0, 0.5, drift=0.05), spc=100,
+              lambda: _sine_records("dahl+travel_drift", SMALL, dahl_law(2.0, 0.2, 10.0, 0.5, drift=0.05), spc=100,
                                     cycles=3, noise=0.03, seed=23, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3)}), SMALL_SPLIT,
               "2x + 0.2v + Dahl σ0 10, Fc 0.5 + 0.05 s erf sign; nominal spring + viscous", "100"))
     add(_case("bouc_wen+viscous", "pair", [{"bouc_wen"}, {"viscous"}],
               [("bouc_wen.k", 0.6 / 0.2, 0.25), ("viscous.c", 0.3, 0.15)], 0.03,
-              lambda: _sine_records("bouc_wen+viscous", FREQS, _bw_law(1.5, 0.3, Fy=0.6, xy=0.2, n=1.5, b=0.6),
+              lambda: _sine_records("bouc_wen+viscous", FREQS, bw_law(1.5, 0.3, Fy=0.6, xy=0.2, n=1.5, b=0.6),
                                     spc=100, cycles=2, noise=0.03, seed=24),
               lambda: _damper({"spring": _spring(2.0)}), FREQ_SPLIT,
               "1.5x + 0.3v + Bouc–Wen Fy 0.6, xy 0.2, n 1.5, b 0.6 (k 3, β 6.7, γ 4.5); nominal spring", "100"))
     add(_case("osc_cubic+coulomb", "pair", [{"cubic_stiffness"}, COULOMB],
               [("cubic_stiffness.k3", 1.5, 0.15), ("coulomb.Fc", 0.1, 0.25)], 0.005,
-              lambda: _osc_records("osc_cubic+coulomb", OSC, _osc_law(0.005, 0.02, 2.0, k3=1.5, Fc=0.1, method="LSODA"),
+              lambda: _osc_records("osc_cubic+coulomb", OSC, osc_law(0.005, 0.02, 2.0, k3=1.5, Fc=0.1, method="LSODA"),
                                    spc=100, cycles=2, noise=0.005, seed=25),
               lambda: _oscillator({"viscous": _visc(0.03), "spring": _spring(1.5)}, mass=0.004), OSC_SPLIT,
               "oscillator + 1.5x³ + 0.1 arctan sign(ẋ) (LSODA); nominal linear oscillator", "100"))
     # ---------------------------------------------------------------- condition (VPPTD, seed 000)
     add(_case("vpptd_linear+clearance", "condition", [{"backlash"}], [("backlash.r", 0.5, 0.20)], 0.2,
-              lambda: _vpptd_records("vpptd_linear+clearance", _const(6.7), _lin(0.65, 1.65), _const(0.0055),
-                                     _lin(9.5, 15.0), clearance=0.5, seed=31),
+              lambda: vpptd_records("vpptd_linear+clearance", p_const(6.7), p_linear(0.65, 1.65), p_const(0.0055),
+                                     p_linear(9.5, 15.0), clearance=0.5, seed=31),
               _vpptd_nominal, VPPTD_SPLIT,
               "k, Ms linear in p (0.65→1.65, 9.5→15); exact play r 0.5° on the angle", "500"))
     add(_case("vpptd_exp+stribeck", "condition", [{"stribeck"}], [("stribeck.dFs", 4.0, 0.25)], 0.2,
-              lambda: _vpptd_records("vpptd_exp+stribeck", _const(6.7), _exp(0.65, 1.3), _const(0.0055),
-                                     _exp(9.5, 19.0), stribeck=(4.0, 15.0), seed=32),
+              lambda: vpptd_records("vpptd_exp+stribeck", p_const(6.7), p_exp(0.65, 1.3), p_const(0.0055),
+                                     p_exp(9.5, 19.0), stribeck=(4.0, 15.0), seed=32),
               _vpptd_nominal, VPPTD_SPLIT,
               "k, Ms ×2 exponentially over p; + 4 e^{−(φ̇/15°/s)²} Nm Stribeck", "500"))
     add(_case("vpptd_linear+delay", "condition", [{"time_delay"}], [("time_delay.tau", 0.008, 0.20)], 0.2,
-              lambda: _vpptd_records("vpptd_linear+delay", _lin(6.7, 8.3), _const(0.65), _const(0.0055),
-                                     _lin(9.5, 15.0), tau=0.008, phase=-math.pi / 2, seed=33),
+              lambda: vpptd_records("vpptd_linear+delay", p_linear(6.7, 8.3), p_const(0.65), p_const(0.0055),
+                                     p_linear(9.5, 15.0), tau=0.008, phase=-math.pi / 2, seed=33),
               _vpptd_nominal, VPPTD_SPLIT,
               "c, Ms linear in p (6.7→8.3, 9.5→15); torque channel 8 ms late; starts from rest at −10°", "500"))
     # ---------------------------------------------------------------- clean controls
     add(_case("clean_friction", "clean", [], [], 0.03,
-              lambda: _sine_records("clean_friction", STD, _static(k=2.0, c=0.3, Fc=0.5), spc=100, cycles=2,
+              lambda: _sine_records("clean_friction", STD, static_law(k=2.0, c=0.3, Fc=0.5), spc=100, cycles=2,
                                     noise=0.03, seed=41),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
               "2x + 0.3v + 0.5 sign(v) (exact); nominal the same structure", "100"))
     add(_case("clean_oscillator_ar1", "clean", [], [], 0.005,
-              lambda: _osc_records("clean_oscillator_ar1", OSC, _osc_law(0.005, 0.02, 2.0), spc=40, cycles=3,
+              lambda: _osc_records("clean_oscillator_ar1", OSC, osc_law(0.005, 0.02, 2.0), spc=40, cycles=3,
                                    noise=0.005, phi=0.8, seed=42),
               lambda: _oscillator({"viscous": _visc(0.03), "spring": _spring(1.5)}, mass=0.004), OSC_SPLIT,
               "linear oscillator (DOP853); nominal linear oscillator", "40", "AR(1) 0.8"))
     add(_case("clean_dahl_1000", "clean", [], [], 0.03,
-              lambda: _sine_records("clean_dahl_1000", SMALL[:2] + SMALL[3:5], _dahl_law(2.0, 0.2, 10.0, 0.5),
+              lambda: _sine_records("clean_dahl_1000", SMALL[:2] + SMALL[3:5], dahl_law(2.0, 0.2, 10.0, 0.5),
                                     spc=1000, cycles=1, noise=0.03, phi=0.9, seed=43, refine=10),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3),
                                "dahl": {"effect": "dahl", "sigma0": 5.0, "Fc": 0.8}}),
@@ -502,13 +359,13 @@ def _build_cases() -> list[Case]:
               "2x + 0.2v + Dahl σ0 10, Fc 0.5 (exact); nominal spring + viscous + Dahl", "1000", "AR(1) 0.9"))
     # ---------------------------------------------------------------- out of library
     add(_case("cogging", "out_of_library", [], [], 0.03,
-              lambda: _sine_records("cogging", STD, _static(k=2.0, c=0.3, Fc=0.4, sign="arctan", width=0.01,
+              lambda: _sine_records("cogging", STD, static_law(k=2.0, c=0.3, Fc=0.4, sign="arctan", width=0.01,
                                                             cog=(0.25, 0.35)),
                                     spc=200, cycles=1.5, noise=0.03, seed=51),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
               "2x + 0.3v + 0.4 arctan sign + 0.25 sin(2πx / 0.35 in); nominal spring + viscous + Coulomb", "200"))
     add(_case("rough_patch", "out_of_library", [], [], 0.03,
-              lambda: _sine_records("rough_patch", STD, _rough_law(2.0, 0.3, Fc=0.4, depth=0.6, period=0.8),
+              lambda: _sine_records("rough_patch", STD, rough_law(2.0, 0.3, Fc=0.4, depth=0.6, period=0.8),
                                     spc=200, cycles=1.5, noise=0.03, seed=53),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2), "coulomb": _coul(0.3)}), STD_SPLIT,
               "2x + 0.3v + 0.4 (1 + 0.6 cos(2πx / 0.8 in)) arctan sign: a friction level varying along the stroke; "
@@ -519,7 +376,7 @@ def _build_cases() -> list[Case]:
 def _inertia_records():
     """Multisines (6 lines, 0.5–3 Hz, one 2 s period at 100 Hz, faded in over 0.25 s) at three rms levels ×
     two phase realisations: F = 2x + 0.3v + 0.006 ẍ."""
-    law = _static(k=2.0, c=0.3, m=0.006)
+    law = static_law(k=2.0, c=0.3, m=0.006)
     tests = []
     t = np.arange(201) / 100.0
     lines = [0.5 * i for i in range(1, 7)]
