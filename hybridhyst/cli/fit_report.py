@@ -10,33 +10,19 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..report.figures import Loop, write_loops
 from .common import atomic_write
 
 __all__ = ["write_loop_figure", "write_report"]
 
 
 def write_loop_figure(path: Path, frame: pd.DataFrame, units: dict[str, str], title: str) -> Path:
-    """Force–displacement loop of one record, measured vs model, as PNG (written atomically).
+    """Response–excitation loop of one held-out record, measured vs model, as PNG (``write_loops``).
 
-    ``frame`` has columns x, y (measured) and y_model, on the evaluation grid.
+    ``frame`` has columns x, y (measured) and y_model, on the evaluation grid; ``units`` ``{"x", "y"}``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.0, 4.5), dpi=120)
-    ax.plot(frame["x"], frame["y"], color="0.6", lw=0.8, label="measured")
-    ax.plot(frame["x"], frame["y_model"], color="C3", lw=1.0, label="model")
-    ax.set_xlabel(f"displacement [{units.get('x', '')}]")
-    ax.set_ylabel(f"force [{units.get('y', '')}]")
-    ax.set_title(f"{title} (held out)")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best")
-    fig.tight_layout()
-    atomic_write(path, lambda p: fig.savefig(p, format="png"))
-    plt.close(fig)
-    return path
+    loop = Loop(frame["x"].to_numpy(float), frame["y"].to_numpy(float), name=f"{title} (held out)", units=units)
+    return write_loops(path, [loop], {"model": [frame["y_model"].to_numpy(float)]})
 
 
 def _fmt(value) -> str:
@@ -111,7 +97,7 @@ def write_report(path: Path, summary: dict) -> Path:
         "",
         *_reference_lines(summary, unit),
         "",
-        (f"![loop](loop.png)  \n*Force–displacement loop of the held-out record {summary['loop_record']}: "
+        (f"![loop](loop.png)  \n*Response–excitation loop of the held-out record {summary['loop_record']}: "
          "measured (grey) and model (red).*"),
         "",
     ]

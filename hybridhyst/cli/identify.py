@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 import hydra
-import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from ..data.records import Record, RecordSet
+from ..data.records import RecordSet
 from ..identify import SearchSpace, identify
+from ..report.figures import write_loops
 from ..simulate import simulate
 from .common import (
     CONF_DIR,
@@ -48,12 +47,7 @@ def add_noise(records: RecordSet, noise_sd: float, seed: int) -> RecordSet:
         raise ValueError(f"noise_sd must be a non-negative number, got {noise_sd!r}")
     if noise_sd == 0:
         return records
-    out = []
-    for i, r in enumerate(records):
-        y = r.y + np.random.default_rng([int(seed), i]).normal(0.0, noise_sd, size=len(r))
-        out.append(Record(name=r.name, t=r.t, x=r.x, y=y, conditions=r.conditions, units=r.units, extra=r.extra,
-                          source=f"{r.source}; + noise sd {noise_sd}"))
-    return RecordSet(out, records.name)
+    return RecordSet([r.with_noise(noise_sd, [int(seed), i]) for i, r in enumerate(records)], records.name)
 
 
 def _load(cfg) -> RecordSet:
@@ -74,33 +68,6 @@ def _identify(model, records, cfg):
                     seed=int(cfg.seed), fisher=bool(opts["fisher"]), jacobian=opts["jacobian"],
                     progress=bool(cfg.progress), ode_method=opts["ode_method"], substeps=int(opts["substeps"]),
                     search_decimate=int(opts.get("search_decimate", 1)))
-
-
-def write_loops(path: Path, records, predictions, limit: int) -> Path:
-    """Response–excitation loops (measured vs identified model) of the first ``limit`` records, one PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = max(1, min(limit, len(records)))
-    cols = min(n, 3)
-    rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), dpi=110, squeeze=False)
-    for ax, r, p in zip(axes.flat, records, predictions):
-        ax.plot(r.x, r.y, color="0.65", lw=0.6, label="data")
-        ax.plot(r.x, p[:, 0].numpy(), color="C3", lw=1.0, label="identified")
-        ax.set_title(r.name, fontsize=9)
-        ax.set_xlabel(f"x [{r.units.get('x', '')}]")
-        ax.set_ylabel(f"y [{r.units.get('y', '')}]")
-        ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[n:]:
-        ax.set_visible(False)
-    axes.flat[0].legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    atomic_write(path, lambda p: fig.savefig(p, format="png"))
-    plt.close(fig)
-    return path
 
 
 def _num(v) -> str:
@@ -167,7 +134,8 @@ def run(cfg: DictConfig) -> dict:
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
                              substeps=int(cfg.identify.substeps))
         summary = _summary(cfg, model, result, records)
-    write_loops(run_dir / "loops.png", list(records), preds, int(cfg.report.max_figures))
+    shown = list(records)[: max(1, int(cfg.report.max_figures))]
+    write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")
     # the fitted nominal's state dict: hybridhyst-train can start a hybrid from it (nominal_state=<run dir>)
     atomic_write(run_dir / "model.pt", lambda p: torch.save(model.state_dict(), p))
     summary["wall_s"] = time.perf_counter() - start

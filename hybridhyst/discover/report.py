@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import atomic_write, write_json
+from ..report.figures import write_loops
 from .diagnose import FEATURES, features
 from .loop import DiscoveryResult
 
@@ -48,7 +49,8 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
             ax.set_title(f"{name} (η²={eta:.2f})", fontsize=7)
             ax.tick_params(labelsize=6)
             if col == 0:
-                ax.set_ylabel(f"residual, {stage}", fontsize=7)
+                unit = train[0].units.get("y") if train else None
+                ax.set_ylabel(f"residual, {stage}" + (f" [{unit}]" if unit else ""), fontsize=7)
     fig.tight_layout()
     atomic_write(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)
@@ -56,27 +58,13 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
 
 
 def loops_figure(result: DiscoveryResult, path: Path, limit: int = 6) -> Path:
-    """Held-out (test) records, or training ones without a test split: measured, before and after."""
-    plt = _pyplot()
+    """Held-out (test) records, or training ones without a test split: measured, before and after
+    (``write_loops``, axes in the records' units)."""
     split = "test" if result.splits["test"] else "train"
-    recs = result.splits[split][:limit]
-    cols = min(3, len(recs))
-    rows = math.ceil(len(recs) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.8 * rows), dpi=90, squeeze=False)
-    for i, rec in enumerate(recs):
-        ax = axes[i // cols, i % cols]
-        ax.plot(rec.x, rec.y, color="0.5", lw=0.8, label="measured")
-        ax.plot(rec.x, result.predictions["before"][split][i], color="C0", lw=0.8, ls="--", label="before")
-        ax.plot(rec.x, result.predictions["after"][split][i], color="C3", lw=0.9, label="after")
-        ax.set_title(rec.name, fontsize=7)
-        ax.tick_params(labelsize=6)
-    for j in range(len(recs), rows * cols):
-        axes[j // cols, j % cols].axis("off")
-    axes[0, 0].legend(fontsize=6)
-    fig.tight_layout()
-    atomic_write(path, lambda p: fig.savefig(p, format="png"))
-    plt.close(fig)
-    return path
+    recs = list(result.splits[split][:limit])
+    predictions = {stage: list(result.predictions[stage][split][: len(recs)]) for stage in ("before", "after")}
+    styles = {"before": {"color": "C0", "ls": "--"}, "after": {"color": "C3"}}
+    return write_loops(path, recs, predictions, styles=styles)
 
 
 def _ic(ev: dict, when: str):

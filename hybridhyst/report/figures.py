@@ -1,7 +1,11 @@
-"""PNG figures of the comparison report (matplotlib, Agg backend, ≤ 8×5 in at 100 dpi).
+"""PNG figures (matplotlib, Agg backend, 100 dpi, ≤ 8 in wide and, up to two rows of panels, 5 in tall).
 
-Every function returns the written path, or None when there is nothing to draw (no predictions, no
-sweep); the caller then leaves the figure out of the report.
+``draw_loops`` / ``write_loops`` is the package's one hysteresis-loop figure (measured vs model response
+against the excitation, axes labelled with the data's units); fit, identify, discovery, the training
+callback and the comparison report all draw their loops with it.
+
+The comparison-report figures return the written path, or None when there is nothing to draw (no
+predictions, no sweep); the caller then leaves the figure out of the report.
 """
 
 from __future__ import annotations
@@ -9,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import textwrap
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -17,11 +22,11 @@ import pandas as pd
 from ..files import atomic_write
 from .tables import configuration_labels
 
-__all__ = ["data_efficiency_figure", "error_per_condition_figure", "lambda_figure", "loops_figure", "sweeps"]
+__all__ = ["Loop", "axis_label", "data_efficiency_figure", "draw_loops", "error_per_condition_figure", "lambda_figure",
+           "loops_figure", "sweeps", "write_loops"]
 
 DPI = 100
 _PREDICTION_COLUMNS = ["record", "split", "condition", "x", "y", "y_pred"]
-
 
 
 def _short(condition) -> str:
@@ -29,6 +34,7 @@ def _short(condition) -> str:
     0.585"), wrapped to short lines."""
     values = ", ".join(part.split("=", 1)[-1] for part in str(condition).split(", "))
     return textwrap.fill(values, 16)
+
 
 def _pyplot():
     import matplotlib
@@ -76,17 +82,157 @@ def _best_runs(runs: pd.DataFrame, summary: pd.DataFrame, limit: int) -> list[tu
 
 
 def _legend_below(fig, handles: list, labels: list[str]) -> None:
-    """One legend for the whole figure, below the panels."""
+    """One legend for the whole figure, below the panels (none without labels)."""
+    if not labels:
+        fig.tight_layout()
+        return
     ncol = min(len(labels), 3)
     rows = math.ceil(len(labels) / max(ncol, 1))
     fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
     fig.tight_layout(rect=(0, min(0.07 * rows, 0.35), 1, 1))
 
 
+# -- the hysteresis-loop figure: every loop plot of the package is drawn here -----------------------------
+
+# physical quantity of a channel, named from its unit (KNOWN_UNITS of hybridhyst.data.units)
+_QUANTITY = {
+    **dict.fromkeys(("m", "cm", "mm", "um", "nm", "in", "ft"), "displacement"),
+    **dict.fromkeys(("deg", "rad", "rev"), "angle"),
+    **dict.fromkeys(("N", "kN", "MN", "kip", "lb", "lbf"), "force"),
+    **dict.fromkeys(("Nm", "N*m", "kNm", "kN*m", "Nmm", "N*mm", "lb*in", "kip*in"), "torque"),
+    **dict.fromkeys(("m/s", "mm/s", "um/s", "in/s", "ft/s"), "velocity"),
+    **dict.fromkeys(("deg/s", "rad/s", "rpm"), "angular velocity"),
+    **dict.fromkeys(("m/s^2", "mm/s^2", "in/s^2", "g"), "acceleration"),
+    **dict.fromkeys(("deg/s^2", "rad/s^2"), "angular acceleration"),
+    **dict.fromkeys(("V", "mV", "kV"), "voltage"),
+    **dict.fromkeys(("A", "mA"), "current"),
+    **dict.fromkeys(("T", "mT"), "flux density"),
+    **dict.fromkeys(("Pa", "kPa", "MPa", "GPa", "bar", "mbar", "psi", "ksi"), "pressure"),
+    **dict.fromkeys(("s", "ms", "us", "min", "h"), "time"),
+}
+_ROLE = {"x": "excitation", "y": "response", "t": "time"}
+_PALETTE = ("C3", "C0", "C2", "C1", "C4", "C5", "C6", "C8", "C9")
+
+
+@dataclass
+class Loop:
+    """One panel of ``draw_loops``: measured response ``y`` against excitation ``x`` (arrays of shape
+    ``(time,)``; NaN breaks the line, ``y=None`` draws no measurement), with the units of the channels
+    (``{"x": "deg", "y": "Nm"}``) and what the panel is titled by (its conditions, else its name).
+
+    A ``hybridhyst.data.Record`` has these fields too and is drawn as it is.
+    """
+
+    x: np.ndarray
+    y: np.ndarray | None
+    name: str = ""
+    conditions: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+
+
+def axis_label(channel: str, unit: str | None) -> str:
+    """Axis label of a record channel: the quantity its unit measures, the channel and the unit,
+    e.g. ``axis_label("x", "deg") == "angle x [deg]"``, ``axis_label("y", "kip") == "force y [kip]"``;
+    without a known quantity the channel's role (``"response y [1]"``), without a unit no brackets."""
+    quantity = _QUANTITY.get(unit or "", _ROLE.get(channel, "channel"))
+    return f"{quantity} {channel} [{unit}]" if unit else f"{quantity} {channel}"
+
+
+def _title(loop) -> str:
+    """The panel title: the loop's condition values ("pressure_mpa=0.05, mixture=1:3"), else its name."""
+    conditions = getattr(loop, "conditions", None) or {}
+    text = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in conditions.items())
+    return textwrap.fill(text or str(getattr(loop, "name", "")), 44)
+
+
+def _curve(values) -> np.ndarray:
+    """A channel as a float array of shape (time,): tensors are detached, (time, channel) gives its first."""
+    if hasattr(values, "detach"):
+        values = values.detach().cpu().numpy()
+    a = np.asarray(values, dtype=float)
+    return a[:, 0] if a.ndim == 2 else a.reshape(-1)
+
+
+def draw_loops(loops, predictions: dict | None = None, *, units: dict | None = None, styles: dict | None = None,
+               measured: str = "measured", columns: int = 3):
+    """The hysteresis-loop figure: measured response against excitation and the model outputs, one panel
+    per loop (a grid of at most ``columns`` columns), returned as an open matplotlib ``Figure``.
+
+    Parameters
+    ----------
+    loops : sequence of ``Loop`` or ``hybridhyst.data.Record`` (anything with ``x``, ``y``, ``name``,
+        ``conditions``, ``units``); one panel each, titled by its condition values (else its name).
+    predictions : ``{label: [one entry per loop]}``; an entry is the model's response on the loop's own
+        ``x`` (shape ``(time,)``, or ``(time, channel)`` of which the first is drawn), an ``(x, y)`` pair on
+        another grid, or None (nothing drawn in that panel).
+    units : ``{"x": unit, "y": unit}`` for every panel, overriding the loops' own ``units``.
+    styles : ``{label: matplotlib line keywords}`` for some prediction labels (default: colours C3, C0, C2,
+        ... in label order, solid).
+    measured : legend label of the measured loop.
+
+    Axis labels name the quantity, the channel and its unit (``axis_label``); one legend below the panels.
+    """
+    loops = list(loops)
+    if not loops:
+        raise ValueError("draw_loops: no loops to draw; pass at least one record")
+    predictions = dict(predictions or {})
+    for label, entries in predictions.items():
+        if len(entries) != len(loops):
+            raise ValueError(f"draw_loops: prediction {label!r} has {len(entries)} entries for {len(loops)} loops; "
+                             "give one per loop (None where there is none)")
+    plt = _pyplot()
+    cols = max(1, min(len(loops), int(columns)))
+    rows = math.ceil(len(loops) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=({1: 5.0, 2: 7.0}.get(cols, 8.0), 3.4 if rows == 1 else 2.5 * rows),
+                             dpi=DPI, squeeze=False)
+    style = {label: {"color": _PALETTE[i % len(_PALETTE)], "lw": 0.9, **(styles or {}).get(label, {})}
+             for i, label in enumerate(predictions)}
+    handles: dict[str, object] = {}
+    for i, (ax, loop) in enumerate(zip(axes.flat, loops)):
+        x = _curve(loop.x)
+        if loop.y is not None:
+            handles[measured], = ax.plot(x, _curve(loop.y), color="0.55", lw=1.1)
+        for label, entries in predictions.items():
+            entry = entries[i]
+            if entry is None:
+                continue
+            px, py = (_curve(entry[0]), _curve(entry[1])) if isinstance(entry, tuple) else (x, _curve(entry))
+            handles[label], = ax.plot(px, py, **style[label])
+        own = {**(getattr(loop, "units", None) or {}), **(units or {})}
+        ax.set_xlabel(axis_label("x", own.get("x")), fontsize=8)
+        ax.set_ylabel(axis_label("y", own.get("y")), fontsize=8)
+        ax.set_title(_title(loop), fontsize=7.5)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(loops):]:
+        ax.set_visible(False)
+    _legend_below(fig, list(handles.values()), list(handles))
+    return fig
+
+
+def write_loops(path: Path, loops, predictions: dict | None = None, **options) -> Path:
+    """``draw_loops(loops, predictions, **options)`` written to ``path`` as PNG (atomically); returns ``path``."""
+    return _save(draw_loops(loops, predictions, **options), Path(path))
+
+
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    """Arrays joined with a NaN between them, so that one line draws them as separate curves."""
+    gaps = [np.full(1, np.nan)] * len(parts)
+    return np.concatenate([a for pair in zip(parts, gaps) for a in pair][:-1]) if parts else np.empty(0)
+
+
+def _records_loop(frame: pd.DataFrame, column: str) -> tuple[np.ndarray, np.ndarray]:
+    """(x, ``column``) of every record of ``frame``, joined with NaN gaps."""
+    records = [rec for _, rec in frame.groupby("record", sort=False)]
+    return (_joined([rec["x"].to_numpy(float) for rec in records]),
+            _joined([rec[column].to_numpy(float) for rec in records]))
+
+
 def loops_figure(runs: pd.DataFrame, summary: pd.DataFrame, conditions: list[str], path: Path,
                  notes: list[str], max_conditions: int = 6, max_configurations: int = 6) -> Path | None:
     """Measured response y vs excitation x and the prediction of the best seed of the best
-    configurations, one panel per held-out condition (at most ``max_conditions``).
+    configurations, one panel per held-out condition (at most ``max_conditions``), drawn by
+    ``write_loops`` with the units of the runs.
 
     ``notes`` receives one line per ``predictions.parquet`` that could not be read.
     """
@@ -96,33 +242,18 @@ def loops_figure(runs: pd.DataFrame, summary: pd.DataFrame, conditions: list[str
     shown = [c for c in conditions if c in present][:max_conditions]
     if not shown:
         return None
-    plt = _pyplot()
-    cols = min(len(shown), 3)
-    rows = math.ceil(len(shown) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(min(8.0, 2.9 * cols), min(5.0, 2.2 * rows + 1.0)), dpi=DPI,
-                             squeeze=False)
-    colors = {label: f"C{i % 10}" for i, label in enumerate(summary["configuration"])}
-    handles: dict[str, object] = {}
-    for ax, condition in zip(axes.flat, shown):
-        measured = next(f for _, f in frames if condition in set(f["condition"]))
-        for _, rec in measured[measured["condition"] == condition].groupby("record", sort=False):
-            handles["measured"], = ax.plot(rec["x"], rec["y"], color="0.55", lw=1.2)
-        for label, frame in frames:
-            for _, rec in frame[frame["condition"] == condition].groupby("record", sort=False):
-                handles[label], = ax.plot(rec["x"], rec["y_pred"], color=colors[label], lw=0.8)
-        ax.set_title(textwrap.fill(str(condition), 38), fontsize=6.5)
-        ax.tick_params(labelsize=7)
-        ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(shown):]:
-        ax.set_visible(False)
     unit = _first_unit(runs)
-    for i, ax in enumerate(list(axes.flat)[:len(shown)]):
-        if i + cols >= len(shown):  # lowest panel of its column
-            ax.set_xlabel(f"x [{unit['x']}]" if unit.get("x") else "x", fontsize=8)
-        if i % cols == 0:
-            ax.set_ylabel(f"y [{unit['F']}]" if unit.get("F") else "y", fontsize=8)
-    _legend_below(fig, list(handles.values()), list(handles))
-    return _save(fig, path)
+    units = {"x": unit["x"], "y": unit["F"]}
+    loops, predictions = [], {label: [] for label, _ in frames}
+    for condition in shown:
+        measured = next(f for _, f in frames if condition in set(f["condition"]))
+        x, y = _records_loop(measured[measured["condition"] == condition], "y")
+        loops.append(Loop(x, y, name=condition, units=units))
+        for label, frame in frames:
+            part = frame[frame["condition"] == condition]
+            predictions[label].append(_records_loop(part, "y_pred") if len(part) else None)
+    colors = {label: f"C{i % 10}" for i, label in enumerate(summary["configuration"])}
+    return write_loops(path, loops, predictions, styles={label: {"color": colors[label]} for label in predictions})
 
 
 def _first_unit(runs: pd.DataFrame) -> dict[str, str]:
