@@ -30,6 +30,7 @@ from ..identify import identify
 from ..physics.compositions.seed000 import SEED000_QUOTED, vpptd_algebraic
 from ..physics.parameters import Constant
 from ..progress import progress as progress_bar
+from ..report.figures import draw_loops
 from ..simulate import simulate
 from ..synth import load_vpptd
 from ..training.modules import PhysicsModule
@@ -319,23 +320,7 @@ def _fig_parameters(final, fits):
 
 def _fig_final_loops(pressures, records, pinn, ident, per_cycle: int):
     """Last cycle at every pressure: data, the PINN's and identify's final models (seed 000 Fig. 7)."""
-    import matplotlib.pyplot as plt
-
-    ncols = min(3, len(pressures))
-    nrows = math.ceil(len(pressures) / ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(2.6 * ncols, 2.1 * nrows), constrained_layout=True,
-                             squeeze=False, sharex=True)
-    last = slice(-per_cycle - 1, None)
-    for ax, p, r, a, b in zip(axes.flat, pressures, records, pinn, ident):
-        ax.plot(r.x[last], r.y[last], color="k", lw=2.5, alpha=0.35, label="data")
-        ax.plot(r.x[last], _predict(a["model"], r)[last], color="C0", lw=1.0, label="PINN")
-        ax.plot(r.x[last], _predict(b["model"], r)[last], color="C1", lw=1.0, ls="--", label="identify")
-        ax.set_title(f"{p:g} MPa", fontsize=9)
-    for ax in axes.flat[len(pressures):]:
-        ax.axis("off")
-    for ax in axes[-1]:
-        ax.set_xlabel("φ [deg]")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("M [Nm]")
-    axes[0, 0].legend(fontsize=7)
-    return fig
+    last = [r.slice(-per_cycle - 1) for r in records]
+    predictions = {name: [_predict(m["model"], r)[-per_cycle - 1:] for m, r in zip(models, records)]
+                   for name, models in (("PINN", pinn), ("identify", ident))}
+    return draw_loops(last, predictions, measured="data", styles={"identify": {"ls": "--"}})

@@ -32,6 +32,7 @@ from ..physics.effects import EFFECTS
 from ..physics.effects.bouc_wen_p import BoucWenNormalised
 from ..physics.models import Constitutive
 from ..progress import progress as progress_bar
+from ..report.figures import draw_loops
 from ..simulate import simulate
 from ..synth import load_vpptd
 from . import resolve_options
@@ -263,25 +264,24 @@ def _metrics_figure(frames: list[pd.DataFrame]):
 
 
 def _loops_figure(opts: dict, r: dict):
-    import matplotlib.pyplot as plt
-
-    wanted = [min(opts["pressures"], key=lambda q: abs(q - v)) for v in (0.01, 0.02, 0.05)]
-    fig, axes = plt.subplots(1, len(set(wanted)), figsize=(11, 3.4), squeeze=False)
+    """Last cycle at 0.01, 0.02 and 0.05 MPa: the noisy loop, identify per pressure and B–W–p jointly; the
+    loading and unloading windows of the metrics shaded (as seed 002 Fig. 13)."""
+    wanted = sorted({min(opts["pressures"], key=lambda q: abs(q - v)) for v in (0.01, 0.02, 0.05)})
     ident = r["per"][r["per"]["method"] == "identify"].set_index("p [MPa]")
-    for ax, p in zip(axes[0], sorted(set(wanted))):
+    n = int(opts["samples_per_cycle"]) + 1
+    records, per, joint = [], [], []
+    for p in wanted:
         rec = r["noisy"].records[opts["pressures"].index(p)]
         with torch.no_grad():
-            per = simulate(_bouc_wen(ident.loc[p, list(FREE)].to_dict()), [rec], backend="fast")[0][:, 0].numpy()
-            joint = simulate(r["joint"], [rec], backend="fast")[0][:, 0].numpy()
-        x = _last_cycle(rec.x, opts)
-        ax.plot(x, _last_cycle(rec.y, opts), ".", color="0.6", ms=2, label=f"seed 001 {opts['mixture']} loop + noise")
-        ax.plot(x, _last_cycle(per, opts), "-", lw=1.2, label="Bouc–Wen at this p (identify)")
-        ax.plot(x, _last_cycle(joint, opts), "--", lw=1.2, label="B–W–p (all p jointly)")
+            per.append(simulate(_bouc_wen(ident.loc[p, list(FREE)].to_dict()), [rec], backend="fast")[0][-n:, 0])
+            joint.append(simulate(r["joint"], [rec], backend="fast")[0][-n:, 0])
+        records.append(rec.slice(-n))
+    fig = draw_loops(records, {"Bouc–Wen at this p (identify)": per, "B–W–p (all p jointly)": joint},
+                     measured=f"seed 001 {opts['mixture']} loop + noise",
+                     styles={"B–W–p (all p jointly)": {"ls": "--"}})
+    for ax in fig.axes[:len(records)]:
         for lo, hi in (opts["loading_window"], opts["unloading_window"]):
             ax.axvspan(lo, hi, color="y", alpha=0.15)
-        ax.set(xlabel="φ [deg]", ylabel="M [Nm]", title=f"p = {p:g} MPa")
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
     return fig
 
 
