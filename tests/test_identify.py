@@ -247,3 +247,63 @@ def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
     assert plain["viscous.c.c1"] == (-1.0, 1.0)
     assert scaled["viscous.c.c1"] == pytest.approx((-10 * 6.7 / 0.09, 10 * 6.7 / 0.09))
     assert scaled["viscous.c.c0"] == plain["viscous.c.c0"]  # the constant term keeps the general rule
+
+
+_KIND_CONFIGS = {  # every parameter-function kind, placed on parameters with different constraints
+    "constant": 1.4,
+    "fixed": {"kind": "fixed", "value": 1.4},
+    "linear": {"kind": "linear", "slope": 6.0, "intercept": 1.1},
+    "polynomial": {"kind": "polynomial", "coeffs": [1.5, -8.0, 90.0, -400.0]},
+    "exp_rise": {"kind": "exp_rise", "y0": 1.0, "a": 0.8, "b": 30.0},
+    "exp_decay": {"kind": "exp_decay", "y0": 1.0, "a": 0.8, "b": 30.0},
+    "exp_growth": {"kind": "exp_growth", "y0": 1.0, "a": 0.3, "b": 10.0},
+    "per_condition": {"kind": "per_condition", "levels": [0.01, 0.05, 0.09], "values": [0.9, 1.2, 1.6],
+                      "condition": "pressure_mpa"},
+    "neural": {"kind": "neural", "base": 1.4, "condition": "pressure_mpa", "hidden": 3},
+}
+
+
+def test_every_parameter_function_kind_is_covered_by_the_search_space_test():
+    from hybridhyst.physics.parameters import _FUNCTIONS
+
+    assert set(_KIND_CONFIGS) == set(_FUNCTIONS)
+
+
+@pytest.mark.parametrize("where", ["viscous.c", "dahl.Fc", "bouc_wen.n"])  # nonnegative, positive, bounded
+@pytest.mark.parametrize("kind", sorted(_KIND_CONFIGS))
+def test_search_space_values_equal_the_models_own_evaluation(kind, where, float64):
+    """The batched path of identification (``SearchSpace.values``) gives, row for row, what the model itself
+    evaluates once the member is written into it (``to_model``), and ``initial`` reads the member back."""
+    effect, pname = where.split(".")
+    kwargs = {"viscous": {"c": 0.3}, "dahl": {"Fc": 1.5, "sigma0": 10.0}, "bouc_wen": {"n": 2.0}}
+    kwargs[effect][pname] = _KIND_CONFIGS[kind]
+    model = Constitutive({"viscous": Viscous(**kwargs["viscous"]), "dahl": EFFECTS["dahl"](**kwargs["dahl"]),
+                          "bouc_wen": EFFECTS["bouc_wen"](**kwargs["bouc_wen"])}).double()
+    fn = model.effects[effect].params[pname]
+    if kind == "neural":  # a trained-looking network, not the zero start
+        torch.manual_seed(0)
+        for p in fn.net.parameters():
+            torch.nn.init.normal_(p, std=0.7)
+    cond = {"pressure_mpa": torch.tensor([0.01, 0.09, 0.05, 0.01, 0.05])}
+    R = 5
+    space = SearchSpace(model, condition_scales={"pressure_mpa": 0.09})
+    x0 = space.initial()
+    want = model.evaluate(cond, R)
+    partial = SearchSpace(model, free=space.names[::2])  # the others held at their values
+    for sp, x in ((space, x0), (partial, x0[::2])):
+        own = sp.values(x[None], cond, R)
+        for key, params in want.items():
+            for name, value in params.items():
+                torch.testing.assert_close(own[key][name], value, rtol=1e-12, atol=1e-12)
+    members = space.from_unit(torch.rand(3, space.dim, generator=torch.Generator().manual_seed(1),
+                                         dtype=torch.float64))
+    got = space.values(members, cond, R)
+    for n, x in enumerate(members):
+        space.to_model(x)
+        torch.testing.assert_close(space.initial(), x, rtol=1e-12, atol=1e-12)
+        for key, params in model.evaluate(cond, R).items():
+            for name, value in params.items():
+                torch.testing.assert_close(got[key][name][n * R:(n + 1) * R], value, rtol=1e-12, atol=1e-12)
+    if kind == "neural":  # network weights have no known sign: boxes symmetric about 0
+        weights = [c for c in space.coordinates if ".net." in c.name]
+        assert len(weights) == 3 + 3 + 3 + 1 and all(c.lower == -c.upper for c in weights)

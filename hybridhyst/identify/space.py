@@ -1,7 +1,8 @@
 """The search space of a nominal model: its free scalar coordinates, their bounds, and batched values.
 
-A model's trainable parameters are parameter functions (``Constant``, ``Linear``/``Polynomial``, the
-exponential forms, ``PerCondition``); each contributes scalar *coordinates*:
+A model's trainable parameters are parameter functions; each declares its scalar *coordinates* and
+evaluates a population of them (``ParameterFunction.coordinates`` / ``evaluate_batch`` in
+``physics/parameters.py``), so this module only lays them side by side:
 
 | function | coordinates | name |
 |---|---|---|
@@ -9,12 +10,14 @@ exponential forms, ``PerCondition``); each contributes scalar *coordinates*:
 | ``Polynomial`` / ``Linear`` | coefficient of c^i | ``effect.param.c<i>`` |
 | ``ExpRise`` / ``ExpDecay`` / ``ExpGrowth`` | y0, a, b | ``effect.param.y0`` ... |
 | ``PerCondition`` | one value per level | ``effect.param[condition=level]`` |
+| ``NeuralFunction`` | base, then every network weight | ``effect.param.base``, ``effect.param.net.head.weight[0]`` |
 | ``Fixed`` | none (a buffer) | |
 
 Bounds rule (finite bounds are required by global search): a box around the coordinate's current value
 v, ``(v / 10, 10 v)`` for v > 0, ``(10 v, v / 10)`` for v < 0 and ``(-1, 1)`` for v = 0 (``factor``
 replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parameter itself (constants and
-per-condition levels; function coefficients have other units, so only the box applies). User overrides
+per-condition levels; function coefficients have other units, so only the box applies). Coordinates of
+unknown sign (network weights) get ``(-10 |v|, 10 |v|)`` instead. User overrides
 ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
 strictly positive and spans more than a factor 3 are searched on a log scale. A polynomial's higher
 coefficient that starts at 0 (a trend in a condition not yet known) gets ``± factor · |c0| / s^i`` instead of
@@ -29,27 +32,10 @@ from dataclasses import dataclass
 
 import torch
 from torch import nn
-from torch.nn.utils import parametrize
 
-from ..physics.parameters import (
-    Bounded,
-    Constant,
-    ExpDecay,
-    ExpGrowth,
-    ExpRise,
-    Fixed,
-    ParameterSpec,
-    PerCondition,
-    Polynomial,
-    Positive,
-    render_unit,
-)
+from ..physics.parameters import FunctionCoordinate, ParameterFunction, ParameterSpec, render_unit
 
 __all__ = ["Box", "Coordinate", "SearchSpace"]
-
-_EXP = {ExpRise: lambda y0, a, b, c: y0 + a * (1 - torch.exp(-b * c)),
-        ExpDecay: lambda y0, a, b, c: y0 + a * torch.exp(-b * c),
-        ExpGrowth: lambda y0, a, b, c: y0 + a * torch.exp(b * c)}
 
 
 @dataclass(frozen=True)
@@ -60,7 +46,7 @@ class Coordinate:
     ----------
     name : ``effect.param`` (constants), ``effect.param.c1`` (coefficients), ``effect.param[p=0.05]``.
     effect, param : keys in ``model.evaluate`` (``effect`` is ``"structure"`` for mass / drive gain).
-    attr, index : attribute of the parameter function holding it and the index in it (None: a scalar).
+    position : its index in the parameter function's coordinates (``ParameterFunction.coordinates``).
     value : the value when the space was built; lower, upper : search bounds.
     unit : unit of the coordinate (the parameter's unit for constants and levels, else ``""``).
     """
@@ -68,8 +54,7 @@ class Coordinate:
     name: str
     effect: str
     param: str
-    attr: str
-    index: int | None
+    position: int
     value: float
     lower: float
     upper: float
@@ -125,7 +110,9 @@ class Box:
         return (s - lo) / (hi - lo)
 
 
-def _box(v: float, factor: float) -> tuple[float, float]:
+def _box(v: float, factor: float, signed: bool = False) -> tuple[float, float]:
+    if signed and v != 0:
+        return -abs(v) * factor, abs(v) * factor
     if v > 0:
         return v / factor, v * factor
     if v < 0:
@@ -133,34 +120,25 @@ def _box(v: float, factor: float) -> tuple[float, float]:
     return -1.0, 1.0
 
 
-def _trend_box(fn, index, v: float, factor: float, condition_scales) -> tuple[float, float] | None:
+def _trend_box(co: FunctionCoordinate, condition: str | None, factor: float,
+               condition_scales) -> tuple[float, float] | None:
     """The box of a polynomial's higher coefficient that starts at 0 (a trend not yet known): a term that
     changes the parameter by up to ``factor`` × its constant term over the condition's magnitude,
     ``± factor · |c0| / s^i`` with s = max |condition| in the data; None (the general rule) otherwise."""
-    if not (isinstance(fn, Polynomial) and index and v == 0.0 and condition_scales):
+    if not (co.power and co.value == 0.0 and condition_scales):
         return None
-    scale, c0 = condition_scales.get(fn.condition), float(fn.coeffs.detach()[0])
-    if not scale or c0 == 0.0:
+    scale = condition_scales.get(condition)
+    if not scale or co.magnitude == 0.0:
         return None
-    half = factor * abs(c0) / float(scale) ** index
+    half = factor * co.magnitude / float(scale) ** co.power
     return -half, half
 
 
-def _entries(fn, key: str, pname: str):
-    """(name suffix, attr, index, current value, is a value of the parameter itself) of one function."""
-    if isinstance(fn, Fixed):
-        return []
-    if isinstance(fn, Constant):
-        return [("", "value", None, float(fn.value.detach()), True)]
-    if isinstance(fn, Polynomial):
-        return [(f".c{i}", "coeffs", i, float(a), False) for i, a in enumerate(fn.coeffs.detach())]
-    if type(fn) in _EXP:
-        return [(f".{a}", a, None, float(getattr(fn, a).detach()), False) for a in ("y0", "a", "b")]
-    if isinstance(fn, PerCondition):
-        return [(f"[{fn.condition}={lv:g}]", "values", i, float(v), True)
-                for i, (lv, v) in enumerate(zip(fn.levels.tolist(), fn.values.detach().tolist()))]
-    raise ValueError(f"parameter {key}.{pname} is a {type(fn).__name__}: global search supports constant, fixed, "
-                     "polynomial/linear, exponential and per-condition functions; fix it or replace it")
+def _coordinates(fn: ParameterFunction, key: str, pname: str) -> list[FunctionCoordinate]:
+    try:
+        return fn.coordinates()
+    except NotImplementedError as err:
+        raise ValueError(f"parameter {key}.{pname}: {err}") from None
 
 
 class SearchSpace(Box):
@@ -184,15 +162,19 @@ class SearchSpace(Box):
         specs.update({("structure", n): model.structure_specs[n] for n in model.structure_params})
         bounds = dict(bounds or {})
         coords = []
+        self.sizes: dict[tuple[str, str], int] = {}
         for (key, pname), fn in self.functions.items():
-            for suffix, attr, index, v, own in _entries(fn, key, pname):
-                name = f"{key}.{pname}{suffix}"
+            declared = _coordinates(fn, key, pname)
+            self.sizes[(key, pname)] = len(declared)
+            for position, co in enumerate(declared):
+                name = f"{key}.{pname}{co.suffix}"
                 override = bounds.pop(name, None)
                 if override is None:
-                    override = _trend_box(fn, index, v, factor, condition_scales)
-                lo, hi = self._bounds(v, specs[(key, pname)] if own else None, factor, override)
-                unit = render_unit(specs[(key, pname)].unit, model.units) if own else ""
-                coords.append(Coordinate(name, key, pname, attr, index, v, lo, hi, unit))
+                    override = _trend_box(co, fn.condition, factor, condition_scales)
+                spec = specs[(key, pname)] if co.own else None
+                lo, hi = self._bounds(co.value, spec, factor, override, co.signed)
+                unit = render_unit(spec.unit, model.units) if spec is not None else ""
+                coords.append(Coordinate(name, key, pname, position, co.value, lo, hi, unit))
         if bounds:
             raise ValueError(f"bounds given for unknown coordinate(s) {sorted(bounds)}; "
                              f"the coordinates are {[c.name for c in coords]}")
@@ -212,11 +194,12 @@ class SearchSpace(Box):
         super().__init__([c.lower for c in coords], [c.upper for c in coords], log)
 
     @staticmethod
-    def _bounds(v: float, spec: ParameterSpec | None, factor: float, override) -> tuple[float, float]:
+    def _bounds(v: float, spec: ParameterSpec | None, factor: float, override,
+                signed: bool = False) -> tuple[float, float]:
         if override is not None:
             lo, hi = (float(b) for b in override)
         else:
-            lo, hi = _box(v, factor)
+            lo, hi = _box(v, factor, signed)
             if spec is not None:
                 lo, hi = max(lo, spec.bounds[0]), min(hi, spec.bounds[1])
                 if spec.constraint == "positive" and lo <= 0:
@@ -231,11 +214,9 @@ class SearchSpace(Box):
 
     def initial(self) -> torch.Tensor:
         """The model's current coordinates ``(D,)`` (float64)."""
-        out = []
-        for c in self.coordinates:
-            t = getattr(self.functions[(c.effect, c.param)], c.attr).detach()
-            out.append(float(t if c.index is None else t[c.index]))
-        return torch.tensor(out, dtype=torch.float64)
+        current = {key: fn.coordinate_values().detach() for key, fn in self.functions.items()}
+        return torch.tensor([float(current[(c.effect, c.param)][c.position]) for c in self.coordinates],
+                            dtype=torch.float64)
 
     # -- population -> per-row parameter values ----------------------------------------------------
     def values(self, X: torch.Tensor, conditions: Mapping[str, torch.Tensor] | None, repeats: int) -> dict:
@@ -245,43 +226,17 @@ class SearchSpace(Box):
         Differentiable w.r.t. ``X``.
         """
         N, R = X.shape[0], int(repeats)
-        cols = {}
+        cols: dict[tuple[str, str], list] = {key: [None] * k for key, k in self.sizes.items()}
         for j, c in enumerate(self.coordinates):
-            cols.setdefault((c.effect, c.param), {})[(c.attr, c.index)] = X[:, j]
+            cols[(c.effect, c.param)][c.position] = X[:, j]
         for c in self.held:
-            cols.setdefault((c.effect, c.param), {})[(c.attr, c.index)] = X.new_full((N,), c.value)
+            cols[(c.effect, c.param)][c.position] = X.new_full((N,), c.value)
         out: dict[str, dict[str, torch.Tensor]] = {}
         for (key, pname), fn in self.functions.items():
-            v = self._function_values(fn, cols.get((key, pname), {}), conditions, N, R, X)
-            out.setdefault(key, {})[pname] = v.reshape(N * R)
+            col = cols[(key, pname)]
+            coords = torch.stack(col, dim=1) if col else X.new_zeros((N, 0))
+            out.setdefault(key, {})[pname] = fn.evaluate_batch(coords, conditions, R).reshape(N * R)
         return out
-
-    @staticmethod
-    def _condition(fn, conditions, R, like) -> torch.Tensor:
-        if not conditions or fn.condition not in conditions:
-            raise ValueError(f"a parameter is a function of {fn.condition!r} but the records give "
-                             f"{sorted(conditions or {})}; add that condition to every record")
-        return torch.as_tensor(conditions[fn.condition], dtype=like.dtype).reshape(1, R)
-
-    def _function_values(self, fn, col, conditions, N, R, X) -> torch.Tensor:
-        if isinstance(fn, Fixed):
-            return fn.value.detach().to(X).expand(N, R)
-        if isinstance(fn, Constant):
-            return col[("value", None)][:, None].expand(N, R)
-        c = self._condition(fn, conditions, R, X)
-        if isinstance(fn, Polynomial):
-            K = fn.coeffs.shape[0]
-            coeffs = torch.stack([col[("coeffs", i)] for i in range(K)], dim=1)
-            return sum(coeffs[:, i:i + 1] * c**i for i in range(K))
-        if type(fn) in _EXP:
-            y0, a, b = (col[(n, None)][:, None] for n in ("y0", "a", "b"))
-            return _EXP[type(fn)](y0, a, b, c)
-        levels = fn.levels.to(X)
-        match = torch.isclose(c.reshape(R, 1), levels[None, :], rtol=1e-9, atol=1e-12)
-        if not bool(match.any(dim=1).all()):
-            raise ValueError(f"PerCondition on {fn.condition!r}: a record's level is not one of {levels.tolist()}")
-        vals = torch.stack([col[("values", i)] for i in range(levels.shape[0])], dim=1)
-        return vals[:, match.to(torch.long).argmax(dim=1)]
 
     # -- writing back --------------------------------------------------------------------------------
     def to_model(self, x) -> nn.Module:
@@ -289,31 +244,13 @@ class SearchSpace(Box):
         x = torch.as_tensor(x, dtype=torch.float64).detach().reshape(-1)
         if x.shape[0] != self.dim:
             raise ValueError(f"expected {self.dim} coordinates, got {x.shape[0]}")
-        grouped: dict[tuple, list] = {}
+        grouped: dict[tuple[str, str], list] = {}
         for c, v in zip(self.coordinates, x.tolist()):
-            grouped.setdefault((c.effect, c.param, c.attr), []).append((c.index, v))
-        with torch.no_grad():
-            for (key, pname, attr), items in grouped.items():
-                fn = self.functions[(key, pname)]
-                current = getattr(fn, attr).detach().clone()
-                for index, v in items:
-                    if index is None:
-                        current = torch.tensor(v, dtype=current.dtype)
-                    else:
-                        current[index] = v
-                if parametrize.is_parametrized(fn, attr):
-                    setattr(fn, attr, _interior(fn, attr, current))
-                else:
-                    getattr(fn, attr).copy_(current)
+            grouped.setdefault((c.effect, c.param), []).append((c.position, v))
+        for key, items in grouped.items():
+            fn = self.functions[key]
+            current = fn.coordinate_values().detach().clone()
+            for position, v in items:
+                current[position] = v
+            fn.set_coordinates(current)
         return self.model
-
-
-def _interior(fn: nn.Module, attr: str, value: torch.Tensor) -> torch.Tensor:
-    """``value`` moved strictly inside the range of the attribute's constraint (right_inverse needs that)."""
-    for p in fn.parametrizations[attr]:
-        if isinstance(p, Bounded):
-            eps = 1e-9 * (p.high - p.low)
-            value = value.clamp(p.low + eps, p.high - eps)
-        elif isinstance(p, Positive):
-            value = value.clamp_min(p.floor + 1e-300)
-    return value

@@ -19,6 +19,8 @@ import torch
 from torch import nn
 from torch.nn.utils import parametrize
 
+from ..nets import MLP
+
 __all__ = [
     "Bounded",
     "Constant",
@@ -26,6 +28,7 @@ __all__ = [
     "ExpGrowth",
     "ExpRise",
     "Fixed",
+    "FunctionCoordinate",
     "Linear",
     "NeuralFunction",
     "ParameterFunction",
@@ -146,13 +149,116 @@ def _condition_tensor(conditions: dict[str, torch.Tensor] | None, name: str, lik
     return torch.as_tensor(conditions[name], dtype=like.dtype, device=like.device)
 
 
+@dataclass(frozen=True)
+class FunctionCoordinate:
+    """One free scalar of a parameter function, as identification's global search sees it.
+
+    Attributes
+    ----------
+    suffix : appended to ``effect.param`` to name it: ``""`` (a constant), ``".c1"``, ``".y0"``,
+        ``"[pressure_mpa=0.05]"``, ``".net.head.weight[0]"``.
+    value : its current value.
+    own : a value of the parameter itself (constants, per-condition levels): the parameter's unit and
+        ``ParameterSpec.bounds`` apply to it; coefficients have other units.
+    power : the power of the condition the coordinate multiplies (polynomial coefficients), else 0.
+    magnitude : |constant term| of a polynomial, which sizes the box of a higher coefficient that starts at 0.
+    signed : its sign is not known in advance (network weights): search it in a box symmetric about 0.
+    """
+
+    suffix: str
+    value: float
+    own: bool = False
+    power: int = 0
+    magnitude: float = 0.0
+    signed: bool = False
+
+
+def _interior(module: nn.Module, attr: str, value: torch.Tensor) -> torch.Tensor:
+    """``value`` moved strictly inside the range of the attribute's constraint (right_inverse needs that)."""
+    for p in module.parametrizations[attr]:
+        if isinstance(p, Bounded):
+            eps = 1e-9 * (p.high - p.low)
+            value = value.clamp(p.low + eps, p.high - eps)
+        elif isinstance(p, Positive):
+            value = value.clamp_min(p.floor + 1e-300)
+    return value
+
+
 class ParameterFunction(nn.Module):
-    """Base class: ``forward(conditions, batch) -> (batch,)`` parameter values."""
+    """Base class: ``forward(conditions, batch) -> (batch,)`` parameter values.
+
+    A function owns its *coordinates*, the free scalars that identification searches: ``coordinates()``
+    declares them (names, current values, box hints), ``coordinate_values()`` reads them ``(k,)``,
+    ``set_coordinates`` writes them back (through the constraint's ``right_inverse``), and
+    ``evaluate_batch(coords (P, k), conditions, batch) -> (P, batch)`` evaluates P coordinate vectors at
+    once. ``forward`` is ``evaluate_batch`` at the function's own coordinates, so both use one formula.
+    Subclasses list the tensors holding the coordinates in ``_attrs`` (in coordinate order).
+    """
 
     condition: str | None = None
+    _attrs: tuple[str, ...] = ()
+    _own: str | None = None  # the attribute holding values of the parameter itself (projected to bounds)
 
     def forward(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> torch.Tensor:
-        raise NotImplementedError
+        return self.evaluate_batch(self.coordinate_values()[None], conditions, batch)[0]
+
+    def evaluate_batch(self, coords: torch.Tensor, conditions: dict[str, torch.Tensor] | None,
+                       batch: int) -> torch.Tensor:
+        """Values ``(P, batch)`` for P coordinate vectors ``coords (P, k)`` (differentiable w.r.t. coords)."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement evaluate_batch")
+
+    def coordinates(self) -> list[FunctionCoordinate]:
+        """The free scalars, in the order of ``coordinate_values``."""
+        raise NotImplementedError(
+            f"{type(self).__name__} does not declare its coordinates; implement coordinates(), _attrs and "
+            "evaluate_batch() (see ParameterFunction), or use a constant, fixed, polynomial/linear, exponential, "
+            "per-condition or neural function"
+        )
+
+    def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
+        return [(a, getattr(self, a)) for a in self._attrs]
+
+    def coordinate_values(self) -> torch.Tensor:
+        """The current coordinates ``(k,)`` in the function's dtype (differentiable; constrained values)."""
+        parts = [t.reshape(-1) for _, t in self._coordinate_tensors()]
+        if not parts:
+            like = next(iter([*self.parameters(), *self.buffers()]), torch.zeros(()))
+            return like.new_zeros(0)
+        return torch.cat(parts) if len(parts) > 1 else parts[0]
+
+    def set_coordinates(self, x) -> None:
+        """Write coordinates ``x (k,)`` (constrained values; moved strictly inside a constraint's range)."""
+        x = torch.as_tensor(x).detach().reshape(-1)
+        sizes = [t.numel() for _, t in self._coordinate_tensors()]
+        if x.shape[0] != sum(sizes):
+            raise ValueError(f"{type(self).__name__} has {sum(sizes)} coordinates, got {x.shape[0]}")
+        offset = 0
+        with torch.no_grad():
+            for (path, t), n in zip(self._coordinate_tensors(), sizes):
+                value = x[offset:offset + n].reshape(t.shape).to(dtype=t.dtype, device=t.device)
+                offset += n
+                owner, _, attr = path.rpartition(".")
+                module = self.get_submodule(owner) if owner else self
+                if parametrize.is_parametrized(module, attr):
+                    setattr(module, attr, _interior(module, attr, value))
+                else:
+                    getattr(module, attr).copy_(value)
+
+    def project(self, lower: float, upper: float) -> None:
+        """Clamp values of the parameter itself that are stored unconstrained into ``[lower, upper]``.
+
+        Only ``Constant`` and ``PerCondition`` hold such values; a parametrized one is already admissible,
+        and coefficients of a function of a condition have no bounds of their own.
+        """
+        if self._own is None or parametrize.is_parametrized(self, self._own):
+            return
+        with torch.no_grad():
+            getattr(self, self._own).clamp_(min=lower if math.isfinite(lower) else None,
+                                            max=upper if math.isfinite(upper) else None)
+
+    def _c(self, conditions, batch: int, like: torch.Tensor) -> torch.Tensor:
+        """The condition ``(1, batch)`` in ``like``'s dtype."""
+        return _condition_tensor(conditions, self.condition, like).expand(batch)[None]
 
     def describe(self) -> str:
         return type(self).__name__
@@ -161,27 +267,36 @@ class ParameterFunction(nn.Module):
 class Constant(ParameterFunction):
     """Same value for every condition, constrained by the parameter's spec."""
 
+    _attrs = ("value",)
+    _own = "value"
+
     def __init__(self, value: float, spec: ParameterSpec | None = None):
         super().__init__()
         self.value = nn.Parameter(torch.tensor(float(value), dtype=torch.get_default_dtype()))
         _constrain(self, "value", spec)
 
-    def forward(self, conditions, batch):
-        return self.value.expand(batch)
+    def coordinates(self) -> list[FunctionCoordinate]:
+        return [FunctionCoordinate("", float(self.value.detach()), own=True)]
+
+    def evaluate_batch(self, coords, conditions, batch):
+        return coords[:, :1].expand(coords.shape[0], batch)
 
     def describe(self) -> str:
         return f"{float(self.value.detach()):.6g}"
 
 
 class Fixed(ParameterFunction):
-    """A constant that is not trained (a buffer, per STYLE rule 3)."""
+    """A constant that is not trained (a buffer, per STYLE rule 3); it has no coordinates."""
 
     def __init__(self, value: float):
         super().__init__()
         self.register_buffer("value", torch.tensor(float(value), dtype=torch.get_default_dtype()))
 
-    def forward(self, conditions, batch):
-        return self.value.expand(batch)
+    def coordinates(self) -> list[FunctionCoordinate]:
+        return []
+
+    def evaluate_batch(self, coords, conditions, batch):
+        return self.value.to(coords).expand(coords.shape[0], batch)
 
     def describe(self) -> str:
         return f"{float(self.value.detach()):.6g} (fixed)"
@@ -190,6 +305,8 @@ class Fixed(ParameterFunction):
 class Polynomial(ParameterFunction):
     """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left)."""
 
+    _attrs = ("coeffs",)
+
     def __init__(self, coeffs: list[float], condition: str = "pressure_mpa"):
         super().__init__()
         if len(coeffs) == 0:
@@ -197,10 +314,13 @@ class Polynomial(ParameterFunction):
         self.condition = condition
         self.coeffs = nn.Parameter(torch.tensor([float(c) for c in coeffs], dtype=torch.get_default_dtype()))
 
-    def forward(self, conditions, batch):
-        c = _condition_tensor(conditions, self.condition, self.coeffs).expand(batch)
-        powers = torch.stack([c**i for i in range(self.coeffs.shape[0])], dim=-1)
-        return powers @ self.coeffs
+    def coordinates(self) -> list[FunctionCoordinate]:
+        coeffs = self.coeffs.detach().tolist()
+        return [FunctionCoordinate(f".c{i}", a, power=i, magnitude=abs(coeffs[0])) for i, a in enumerate(coeffs)]
+
+    def evaluate_batch(self, coords, conditions, batch):
+        c = self._c(conditions, batch, coords)
+        return sum(coords[:, i:i + 1] * c**i for i in range(coords.shape[1]))
 
     def describe(self) -> str:
         terms = [f"{float(a):+.6g}·{self.condition}^{i}" for i, a in enumerate(self.coeffs.detach())]
@@ -215,6 +335,10 @@ class Linear(Polynomial):
 
 
 class _Exponential(ParameterFunction):
+    """y = y0 + a · f(b · c) with ``_shape`` f; coordinates y0, a, b."""
+
+    _attrs = ("y0", "a", "b")
+
     def __init__(self, y0: float, a: float, b: float, condition: str = "pressure_mpa"):
         super().__init__()
         self.condition = condition
@@ -223,8 +347,16 @@ class _Exponential(ParameterFunction):
         self.a = nn.Parameter(torch.tensor(float(a), dtype=dtype))
         self.b = nn.Parameter(torch.tensor(float(b), dtype=dtype))
 
-    def _c(self, conditions, batch):
-        return _condition_tensor(conditions, self.condition, self.y0).expand(batch)
+    def coordinates(self) -> list[FunctionCoordinate]:
+        return [FunctionCoordinate(f".{k}", float(getattr(self, k).detach())) for k in self._attrs]
+
+    @staticmethod
+    def _shape(bc: torch.Tensor) -> torch.Tensor:
+        raise NotImplementedError
+
+    def evaluate_batch(self, coords, conditions, batch):
+        y0, a, b = coords[:, 0:1], coords[:, 1:2], coords[:, 2:3]
+        return y0 + a * self._shape(b * self._c(conditions, batch, coords))
 
     _form = "{y0} + {a}·f({b}·{c})"
 
@@ -238,8 +370,9 @@ class ExpRise(_Exponential):
 
     _form = "{y0} + {a}·(1 − exp(−{b}·{c}))"
 
-    def forward(self, conditions, batch):
-        return self.y0 + self.a * (1 - torch.exp(-self.b * self._c(conditions, batch)))
+    @staticmethod
+    def _shape(bc):
+        return 1 - torch.exp(-bc)
 
 
 class ExpDecay(_Exponential):
@@ -247,8 +380,9 @@ class ExpDecay(_Exponential):
 
     _form = "{y0} + {a}·exp(−{b}·{c})"
 
-    def forward(self, conditions, batch):
-        return self.y0 + self.a * torch.exp(-self.b * self._c(conditions, batch))
+    @staticmethod
+    def _shape(bc):
+        return torch.exp(-bc)
 
 
 class ExpGrowth(_Exponential):
@@ -256,12 +390,20 @@ class ExpGrowth(_Exponential):
 
     _form = "{y0} + {a}·exp({b}·{c})"
 
-    def forward(self, conditions, batch):
-        return self.y0 + self.a * torch.exp(self.b * self._c(conditions, batch))
+    @staticmethod
+    def _shape(bc):
+        return torch.exp(bc)
 
 
 class PerCondition(ParameterFunction):
-    """One free value per level of a condition (levels given up front; unknown levels are an error)."""
+    """One free value per level of a condition (levels given up front; unknown levels are an error).
+
+    The values are stored as ``level_values`` (``values`` reads them): a constraint's parametrization cannot
+    be registered under the name ``values``, which ``ModuleDict`` already has as a method.
+    """
+
+    _attrs = ("level_values",)
+    _own = "level_values"
 
     def __init__(self, levels: list[float], values: list[float] | float, condition: str,
                  spec: ParameterSpec | None = None):
@@ -272,40 +414,83 @@ class PerCondition(ParameterFunction):
         if len(levels) != len(values):
             raise ValueError(f"PerCondition: {len(levels)} levels but {len(values)} values")
         self.register_buffer("levels", torch.tensor([float(v) for v in levels], dtype=torch.get_default_dtype()))
-        self.values = nn.Parameter(torch.tensor([float(v) for v in values], dtype=torch.get_default_dtype()))
-        _constrain(self, "values", spec)
+        self.level_values = nn.Parameter(torch.tensor([float(v) for v in values], dtype=torch.get_default_dtype()))
+        _constrain(self, "level_values", spec)
+        self.register_load_state_dict_pre_hook(_renamed_level_values)
 
-    def forward(self, conditions, batch):
-        c = _condition_tensor(conditions, self.condition, self.levels).expand(batch)
-        match = torch.isclose(c[:, None], self.levels[None, :], rtol=1e-9, atol=1e-12)
+    @property
+    def values(self) -> torch.Tensor:
+        """The value at each level ``(L,)`` (constrained)."""
+        return self.level_values
+
+    def coordinates(self) -> list[FunctionCoordinate]:
+        pairs = zip(self.levels.tolist(), self.level_values.detach().tolist())
+        return [FunctionCoordinate(f"[{self.condition}={lv:g}]", v, own=True) for lv, v in pairs]
+
+    def evaluate_batch(self, coords, conditions, batch):
+        c = self._c(conditions, batch, coords)[0]
+        levels = self.levels.to(coords)
+        match = torch.isclose(c[:, None], levels[None, :], rtol=1e-9, atol=1e-12)
         missing = ~match.any(dim=1)
         if bool(missing.any()):
             raise ValueError(
                 f"PerCondition on {self.condition!r}: level(s) {sorted(set(c[missing].tolist()))} have no value; "
-                f"known levels are {self.levels.tolist()}"
+                f"known levels are {levels.tolist()}"
             )
-        return self.values[match.to(torch.long).argmax(dim=1)]
+        return coords[:, match.to(torch.long).argmax(dim=1)]
 
     def describe(self) -> str:
-        pairs = zip(self.levels.tolist(), self.values.detach().tolist())
+        pairs = zip(self.levels.tolist(), self.level_values.detach().tolist())
         return ", ".join(f"{self.condition}={lv:g}: {v:.6g}" for lv, v in pairs)
 
 
+def _renamed_level_values(module, state_dict, prefix, *args) -> None:
+    """Load a state dict saved when ``PerCondition`` stored its values as ``values``."""
+    if prefix + "values" in state_dict and prefix + "level_values" not in state_dict:
+        state_dict[prefix + "level_values"] = state_dict.pop(prefix + "values")
+
+
 class NeuralFunction(ParameterFunction):
-    """Small MLP of one condition, added to a base value: y = base + MLP(c). Starts at ``base``."""
+    """Small MLP of one condition, added to a base value: y = base + MLP(c). Starts at ``base``.
+
+    The network is ``nets.MLP(1, 1, [hidden], "tanh")`` with a zero-initialised output layer. Its
+    coordinates are ``base`` then every network weight (``.net.body.0.weight[i]`` ...), searched in boxes
+    symmetric about 0.
+    """
 
     def __init__(self, base: float, condition: str, hidden: int = 16):
         super().__init__()
         self.condition = condition
         dtype = torch.get_default_dtype()
         self.base = nn.Parameter(torch.tensor(float(base), dtype=dtype))
-        self.net = nn.Sequential(nn.Linear(1, hidden, dtype=dtype), nn.Tanh(), nn.Linear(hidden, 1, dtype=dtype))
-        nn.init.zeros_(self.net[-1].weight)
-        nn.init.zeros_(self.net[-1].bias)
+        self.net = MLP(1, 1, [int(hidden)], "tanh", zero_last=True)
+
+    def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
+        return [("base", self.base), *((f"net.{n}", p) for n, p in self.net.named_parameters())]
+
+    def coordinates(self) -> list[FunctionCoordinate]:
+        out = [FunctionCoordinate(".base", float(self.base.detach()))]
+        for name, p in self.net.named_parameters():
+            out += [FunctionCoordinate(f".net.{name}[{i}]", w, signed=True)
+                    for i, w in enumerate(p.detach().reshape(-1).tolist())]
+        return out
 
     def forward(self, conditions, batch):
         c = _condition_tensor(conditions, self.condition, self.base).expand(batch)
         return self.base + self.net(c[:, None]).squeeze(-1)
+
+    def evaluate_batch(self, coords, conditions, batch):
+        c = self._c(conditions, batch, coords)[0]
+        shapes = [(n, p.shape) for n, p in self.net.named_parameters()]
+
+        def net_at(flat: torch.Tensor) -> torch.Tensor:  # one member's network on all conditions
+            params, offset = {}, 0
+            for name, shape in shapes:
+                params[name] = flat[offset:offset + shape.numel()].reshape(shape)
+                offset += shape.numel()
+            return torch.func.functional_call(self.net, params, (c[:, None],)).squeeze(-1)
+
+        return coords[:, :1] + torch.func.vmap(net_at)(coords[:, 1:])
 
 
 _FUNCTIONS = {
@@ -364,11 +549,5 @@ def project_to_bounds(model: nn.Module) -> None:
             continue
         for pname, fn in params.items():
             spec = specs.get(pname)
-            if spec is None or spec.constraint != "nonnegative":
-                continue
-            attr = "value" if isinstance(fn, Constant) else "values" if isinstance(fn, PerCondition) else None
-            if attr is None or parametrize.is_parametrized(fn, attr):
-                continue
-            lo, hi = spec.bounds
-            with torch.no_grad():
-                getattr(fn, attr).clamp_(min=lo if math.isfinite(lo) else None, max=hi if math.isfinite(hi) else None)
+            if spec is not None and spec.constraint == "nonnegative":
+                fn.project(*spec.bounds)
