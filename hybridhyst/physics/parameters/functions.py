@@ -1,267 +1,33 @@
-"""Constrained physical parameters and parameter functions of an operating condition.
+"""Parameter functions: an operating condition (e.g. underpressure p [MPa]) → a parameter value.
 
-A physical parameter is stored unconstrained and mapped to its admissible range by a
-``torch.nn.utils.parametrize`` parametrization (``Positive``: softplus, ``Bounded``: scaled sigmoid),
-never by clamping, so gradients survive at the bounds.
-
-A *parameter function* maps an operating condition (e.g. underpressure p [MPa]) to a parameter value.
-Every effect parameter is one of these modules; ``Constant`` is the usual case. Functions follow the
-seeds: linear and polynomial in p (seed 001 Table 1), exponential rise-to-maximum / decay / growth
-(seed 002 eqs. 7-12), one value per condition level, and a small neural network.
+Every effect parameter is one of these modules; ``Constant`` is the usual case. Functions follow the seeds:
+linear and polynomial in p (seed 001 Table 1), exponential rise-to-maximum / decay / growth (seed 002
+eqs. 7-12), one value per condition level, and a small neural network. Each function owns its coordinates
+(the free scalars identification searches) and their batched evaluation.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import torch
 from torch import nn
-from torch.nn.utils import parametrize
 
-from ..nets import MLP
+from ...nets import MLP
+from .base import FunctionCoordinate, ParameterFunction, _condition_tensor
+from .constraints import ParameterSpec, _constrain
 
 __all__ = [
-    "Bounded",
     "Constant",
     "ExpDecay",
     "ExpGrowth",
     "ExpRise",
     "Fixed",
-    "FunctionCoordinate",
     "Linear",
     "NeuralFunction",
-    "ParameterFunction",
-    "ParameterSpec",
     "PerCondition",
     "Polynomial",
-    "Positive",
     "build_function",
     "project_to_bounds",
-    "render_unit",
 ]
-
-
-class Positive(nn.Module):
-    """Softplus map R -> (floor, inf) with an exact inverse (``right_inverse``)."""
-
-    def __init__(self, floor: float = 0.0):
-        super().__init__()
-        self.floor = float(floor)
-
-    def forward(self, raw: torch.Tensor) -> torch.Tensor:
-        # log(1 + e^raw) without softplus's threshold switch (discontinuous by ~1e-9 at raw = 20)
-        return torch.logaddexp(raw, torch.zeros_like(raw)) + self.floor
-
-    def right_inverse(self, value: torch.Tensor) -> torch.Tensor:
-        y = torch.as_tensor(value) - self.floor
-        if torch.any(y <= 0):
-            raise ValueError(f"Positive parameter needs a value > {self.floor}, got {value.tolist()}")
-        # log(expm1(y)) computed stably for large y
-        return y + torch.log(-torch.expm1(-y))
-
-
-class Bounded(nn.Module):
-    """Scaled sigmoid map R -> (low, high) with an exact inverse."""
-
-    def __init__(self, low: float, high: float):
-        super().__init__()
-        if not high > low:
-            raise ValueError(f"Bounded needs low < high, got ({low}, {high})")
-        self.low, self.high = float(low), float(high)
-
-    def forward(self, raw: torch.Tensor) -> torch.Tensor:
-        return self.low + (self.high - self.low) * torch.sigmoid(raw)
-
-    def right_inverse(self, value: torch.Tensor) -> torch.Tensor:
-        s = (torch.as_tensor(value) - self.low) / (self.high - self.low)
-        if torch.any((s <= 0) | (s >= 1)):
-            raise ValueError(
-                f"Bounded parameter needs a value strictly inside ({self.low}, {self.high}), got {value.tolist()}"
-            )
-        return torch.logit(s)
-
-
-@dataclass(frozen=True)
-class ParameterSpec:
-    """Definition of one effect parameter.
-
-    Parameters
-    ----------
-    default : value used when the configuration gives none (the effect's neutral value where it has one).
-    unit : unit template in the model's symbols ``F`` (response), ``x`` (excitation/displacement),
-        ``u`` (input), ``t`` (time), e.g. ``"F*s/x"`` for a viscous coefficient; see ``render_unit``.
-    bounds : search bounds used by identification; also the hard range when ``constraint="bounded"``.
-    constraint : ``"positive"``, ``"nonnegative"``, ``"bounded"`` or ``"real"``.
-    neutral : the value at which the effect contributes nothing (used when discovery adds it).
-    doc : one line on what the parameter is.
-    """
-
-    default: float
-    unit: str = "-"
-    bounds: tuple[float, float] = (-math.inf, math.inf)
-    constraint: str = "real"
-    neutral: float | None = None
-    doc: str = ""
-
-
-def render_unit(template: str, units: dict[str, str] | None) -> str:
-    """Render a unit template such as ``"F*s/x"`` with the model's units ({'F': 'Nm', 'x': 'deg'})."""
-    if not units:
-        return template
-    out = []
-    token = ""
-    for ch in template + " ":
-        if ch.isalpha() or ch == "_":
-            token += ch
-            continue
-        if token:
-            out.append(units.get(token, token))
-            token = ""
-        if ch != " ":
-            out.append(ch)
-    return "".join(out)
-
-
-def _constrain(module: nn.Module, name: str, spec: ParameterSpec | None) -> None:
-    if spec is None or spec.constraint == "real":
-        return
-    if spec.constraint == "positive":
-        parametrize.register_parametrization(module, name, Positive())
-    elif spec.constraint == "nonnegative":
-        # Amplitudes whose neutral value is exactly 0 (an effect added by discovery starts there) stay
-        # unconstrained in storage: softplus cannot reach 0 and would zero the gradient near it.
-        # Identification keeps them inside ``spec.bounds``.
-        return
-    elif spec.constraint == "bounded":
-        parametrize.register_parametrization(module, name, Bounded(*spec.bounds))
-    else:
-        raise ValueError(f"unknown constraint {spec.constraint!r}; use positive, nonnegative, bounded or real")
-
-
-def _condition_tensor(conditions: dict[str, torch.Tensor] | None, name: str, like: torch.Tensor) -> torch.Tensor:
-    if conditions is None or name not in conditions:
-        known = sorted(conditions) if conditions else []
-        raise ValueError(
-            f"parameter function needs condition {name!r} but the records give {known}; "
-            f"add a {name!r} condition to every record or use a constant parameter"
-        )
-    return torch.as_tensor(conditions[name], dtype=like.dtype, device=like.device)
-
-
-@dataclass(frozen=True)
-class FunctionCoordinate:
-    """One free scalar of a parameter function, as identification's global search sees it.
-
-    Attributes
-    ----------
-    suffix : appended to ``effect.param`` to name it: ``""`` (a constant), ``".c1"``, ``".y0"``,
-        ``"[pressure_mpa=0.05]"``, ``".net.head.weight[0]"``.
-    value : its current value.
-    own : a value of the parameter itself (constants, per-condition levels): the parameter's unit and
-        ``ParameterSpec.bounds`` apply to it; coefficients have other units.
-    power : the power of the condition the coordinate multiplies (polynomial coefficients), else 0.
-    magnitude : |constant term| of a polynomial, which sizes the box of a higher coefficient that starts at 0.
-    signed : its sign is not known in advance (network weights): search it in a box symmetric about 0.
-    """
-
-    suffix: str
-    value: float
-    own: bool = False
-    power: int = 0
-    magnitude: float = 0.0
-    signed: bool = False
-
-
-def _interior(module: nn.Module, attr: str, value: torch.Tensor) -> torch.Tensor:
-    """``value`` moved strictly inside the range of the attribute's constraint (right_inverse needs that)."""
-    for p in module.parametrizations[attr]:
-        if isinstance(p, Bounded):
-            eps = 1e-9 * (p.high - p.low)
-            value = value.clamp(p.low + eps, p.high - eps)
-        elif isinstance(p, Positive):
-            value = value.clamp_min(p.floor + 1e-300)
-    return value
-
-
-class ParameterFunction(nn.Module):
-    """Base class: ``forward(conditions, batch) -> (batch,)`` parameter values.
-
-    A function owns its *coordinates*, the free scalars that identification searches: ``coordinates()``
-    declares them (names, current values, box hints), ``coordinate_values()`` reads them ``(k,)``,
-    ``set_coordinates`` writes them back (through the constraint's ``right_inverse``), and
-    ``evaluate_batch(coords (P, k), conditions, batch) -> (P, batch)`` evaluates P coordinate vectors at
-    once. ``forward`` is ``evaluate_batch`` at the function's own coordinates, so both use one formula.
-    Subclasses list the tensors holding the coordinates in ``_attrs`` (in coordinate order).
-    """
-
-    condition: str | None = None
-    _attrs: tuple[str, ...] = ()
-    _own: str | None = None  # the attribute holding values of the parameter itself (projected to bounds)
-
-    def forward(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> torch.Tensor:
-        return self.evaluate_batch(self.coordinate_values()[None], conditions, batch)[0]
-
-    def evaluate_batch(self, coords: torch.Tensor, conditions: dict[str, torch.Tensor] | None,
-                       batch: int) -> torch.Tensor:
-        """Values ``(P, batch)`` for P coordinate vectors ``coords (P, k)`` (differentiable w.r.t. coords)."""
-        raise NotImplementedError(f"{type(self).__name__} does not implement evaluate_batch")
-
-    def coordinates(self) -> list[FunctionCoordinate]:
-        """The free scalars, in the order of ``coordinate_values``."""
-        raise NotImplementedError(
-            f"{type(self).__name__} does not declare its coordinates; implement coordinates(), _attrs and "
-            "evaluate_batch() (see ParameterFunction), or use a constant, fixed, polynomial/linear, exponential, "
-            "per-condition or neural function"
-        )
-
-    def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
-        return [(a, getattr(self, a)) for a in self._attrs]
-
-    def coordinate_values(self) -> torch.Tensor:
-        """The current coordinates ``(k,)`` in the function's dtype (differentiable; constrained values)."""
-        parts = [t.reshape(-1) for _, t in self._coordinate_tensors()]
-        if not parts:
-            like = next(iter([*self.parameters(), *self.buffers()]), torch.zeros(()))
-            return like.new_zeros(0)
-        return torch.cat(parts) if len(parts) > 1 else parts[0]
-
-    def set_coordinates(self, x) -> None:
-        """Write coordinates ``x (k,)`` (constrained values; moved strictly inside a constraint's range)."""
-        x = torch.as_tensor(x).detach().reshape(-1)
-        sizes = [t.numel() for _, t in self._coordinate_tensors()]
-        if x.shape[0] != sum(sizes):
-            raise ValueError(f"{type(self).__name__} has {sum(sizes)} coordinates, got {x.shape[0]}")
-        offset = 0
-        with torch.no_grad():
-            for (path, t), n in zip(self._coordinate_tensors(), sizes):
-                value = x[offset:offset + n].reshape(t.shape).to(dtype=t.dtype, device=t.device)
-                offset += n
-                owner, _, attr = path.rpartition(".")
-                module = self.get_submodule(owner) if owner else self
-                if parametrize.is_parametrized(module, attr):
-                    setattr(module, attr, _interior(module, attr, value))
-                else:
-                    getattr(module, attr).copy_(value)
-
-    def project(self, lower: float, upper: float) -> None:
-        """Clamp values of the parameter itself that are stored unconstrained into ``[lower, upper]``.
-
-        Only ``Constant`` and ``PerCondition`` hold such values; a parametrized one is already admissible,
-        and coefficients of a function of a condition have no bounds of their own.
-        """
-        if self._own is None or parametrize.is_parametrized(self, self._own):
-            return
-        with torch.no_grad():
-            getattr(self, self._own).clamp_(min=lower if math.isfinite(lower) else None,
-                                            max=upper if math.isfinite(upper) else None)
-
-    def _c(self, conditions, batch: int, like: torch.Tensor) -> torch.Tensor:
-        """The condition ``(1, batch)`` in ``like``'s dtype."""
-        return _condition_tensor(conditions, self.condition, like).expand(batch)[None]
-
-    def describe(self) -> str:
-        return type(self).__name__
 
 
 class Constant(ParameterFunction):

@@ -1,0 +1,129 @@
+"""The base of parameter functions: ``ParameterFunction`` (a module mapping conditions to a parameter value,
+owning its coordinates) and ``FunctionCoordinate`` (one free scalar as identification sees it)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+from torch.nn.utils import parametrize
+
+from .constraints import _interior
+
+__all__ = ["FunctionCoordinate", "ParameterFunction"]
+
+
+def _condition_tensor(conditions: dict[str, torch.Tensor] | None, name: str, like: torch.Tensor) -> torch.Tensor:
+    if conditions is None or name not in conditions:
+        known = sorted(conditions) if conditions else []
+        raise ValueError(
+            f"parameter function needs condition {name!r} but the records give {known}; "
+            f"add a {name!r} condition to every record or use a constant parameter"
+        )
+    return torch.as_tensor(conditions[name], dtype=like.dtype, device=like.device)
+
+
+@dataclass(frozen=True)
+class FunctionCoordinate:
+    """One free scalar of a parameter function, as identification's global search sees it.
+
+    Attributes
+    ----------
+    suffix : appended to ``effect.param`` to name it: ``""`` (a constant), ``".c1"``, ``".y0"``,
+        ``"[pressure_mpa=0.05]"``, ``".net.head.weight[0]"``.
+    value : its current value.
+    own : a value of the parameter itself (constants, per-condition levels): the parameter's unit and
+        ``ParameterSpec.bounds`` apply to it; coefficients have other units.
+    power : the power of the condition the coordinate multiplies (polynomial coefficients), else 0.
+    magnitude : |constant term| of a polynomial, which sizes the box of a higher coefficient that starts at 0.
+    signed : its sign is not known in advance (network weights): search it in a box symmetric about 0.
+    """
+
+    suffix: str
+    value: float
+    own: bool = False
+    power: int = 0
+    magnitude: float = 0.0
+    signed: bool = False
+
+
+class ParameterFunction(nn.Module):
+    """Base class: ``forward(conditions, batch) -> (batch,)`` parameter values.
+
+    A function owns its *coordinates*, the free scalars that identification searches: ``coordinates()``
+    declares them (names, current values, box hints), ``coordinate_values()`` reads them ``(k,)``,
+    ``set_coordinates`` writes them back (through the constraint's ``right_inverse``), and
+    ``evaluate_batch(coords (P, k), conditions, batch) -> (P, batch)`` evaluates P coordinate vectors at
+    once. ``forward`` is ``evaluate_batch`` at the function's own coordinates, so both use one formula.
+    Subclasses list the tensors holding the coordinates in ``_attrs`` (in coordinate order).
+    """
+
+    condition: str | None = None
+    _attrs: tuple[str, ...] = ()
+    _own: str | None = None  # the attribute holding values of the parameter itself (projected to bounds)
+
+    def forward(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> torch.Tensor:
+        return self.evaluate_batch(self.coordinate_values()[None], conditions, batch)[0]
+
+    def evaluate_batch(self, coords: torch.Tensor, conditions: dict[str, torch.Tensor] | None,
+                       batch: int) -> torch.Tensor:
+        """Values ``(P, batch)`` for P coordinate vectors ``coords (P, k)`` (differentiable w.r.t. coords)."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement evaluate_batch")
+
+    def coordinates(self) -> list[FunctionCoordinate]:
+        """The free scalars, in the order of ``coordinate_values``."""
+        raise NotImplementedError(
+            f"{type(self).__name__} does not declare its coordinates; implement coordinates(), _attrs and "
+            "evaluate_batch() (see ParameterFunction), or use a constant, fixed, polynomial/linear, exponential, "
+            "per-condition or neural function"
+        )
+
+    def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
+        return [(a, getattr(self, a)) for a in self._attrs]
+
+    def coordinate_values(self) -> torch.Tensor:
+        """The current coordinates ``(k,)`` in the function's dtype (differentiable; constrained values)."""
+        parts = [t.reshape(-1) for _, t in self._coordinate_tensors()]
+        if not parts:
+            like = next(iter([*self.parameters(), *self.buffers()]), torch.zeros(()))
+            return like.new_zeros(0)
+        return torch.cat(parts) if len(parts) > 1 else parts[0]
+
+    def set_coordinates(self, x) -> None:
+        """Write coordinates ``x (k,)`` (constrained values; moved strictly inside a constraint's range)."""
+        x = torch.as_tensor(x).detach().reshape(-1)
+        sizes = [t.numel() for _, t in self._coordinate_tensors()]
+        if x.shape[0] != sum(sizes):
+            raise ValueError(f"{type(self).__name__} has {sum(sizes)} coordinates, got {x.shape[0]}")
+        offset = 0
+        with torch.no_grad():
+            for (path, t), n in zip(self._coordinate_tensors(), sizes):
+                value = x[offset:offset + n].reshape(t.shape).to(dtype=t.dtype, device=t.device)
+                offset += n
+                owner, _, attr = path.rpartition(".")
+                module = self.get_submodule(owner) if owner else self
+                if parametrize.is_parametrized(module, attr):
+                    setattr(module, attr, _interior(module, attr, value))
+                else:
+                    getattr(module, attr).copy_(value)
+
+    def project(self, lower: float, upper: float) -> None:
+        """Clamp values of the parameter itself that are stored unconstrained into ``[lower, upper]``.
+
+        Only ``Constant`` and ``PerCondition`` hold such values; a parametrized one is already admissible,
+        and coefficients of a function of a condition have no bounds of their own.
+        """
+        if self._own is None or parametrize.is_parametrized(self, self._own):
+            return
+        with torch.no_grad():
+            getattr(self, self._own).clamp_(min=lower if math.isfinite(lower) else None,
+                                            max=upper if math.isfinite(upper) else None)
+
+    def _c(self, conditions, batch: int, like: torch.Tensor) -> torch.Tensor:
+        """The condition ``(1, batch)`` in ``like``'s dtype."""
+        return _condition_tensor(conditions, self.condition, like).expand(batch)[None]
+
+    def describe(self) -> str:
+        return type(self).__name__
