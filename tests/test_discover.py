@@ -5,16 +5,17 @@ fails clearly on bad input. Discovery on data the library did not make: ``tests/
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
 import torch
 
-from hybridhyst.data import RecordSet
+from hybridhyst.data import Record, RecordSet
 from hybridhyst.discover import Scales, diagnose, discover, information_criterion, structure_explained
 from hybridhyst.discover.report import write_discovery
-from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
 from hybridhyst.simulate import simulate
+from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
 
 NOISE = 0.02
 FEW = ["coulomb", "cubic_stiffness", "backlash", "time_delay"]
@@ -32,7 +33,8 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
     fitted = rep["steps"][0]["new_coordinates"][f"{effect}.{key}"]
     assert fitted == pytest.approx(values[key], rel=0.05)
     assert rep["after"]["test_rmse"] <= 1.2 * NOISE < rep["before"]["test_rmse"]
-    assert rep["steps"][0]["evidence"]["bic_after"] < rep["steps"][0]["evidence"]["bic_before"]
+    n_train = sum(len(r) for r in res.splits["train"])  # the BIC reported is the formula with k coordinates
+    assert _coordinates_in_bic(rep["steps"][0], n_train) == pytest.approx(2 + len(rep["steps"][0]["new_coordinates"]))
     report = write_discovery(res, tmp_path, title="t", unit="kip")
     saved = json.loads((tmp_path / "discovery.json").read_text())
     assert set(saved) >= {"before", "after", "steps", "unexplained"} and saved["steps"][0]["effect"] == effect
@@ -92,8 +94,64 @@ def test_diagnostics_measure_structure_and_whiteness():
     preds = [r.y - NOISE * rng.standard_normal(len(r)) for r in records]  # white residual
     d = diagnose(records.records, preds, NOISE)
     assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
-    assert information_criterion(1.0, 100, 3) < information_criterion(1.0, 100, 4)
     assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
+
+
+def _coordinates_in_bic(entry: dict, n: int) -> float:
+    """k solved from a step's reported ``bic_after`` and training RMSE: BIC = n ln(SSE/n) + k ln n with
+    SSE/n = RMSE²; a whole number only if the loop computed the formula with a count of coordinates."""
+    return (entry["evidence"]["bic_after"] - n * math.log(entry["train_rmse"] ** 2)) / math.log(n)
+
+
+def test_information_criterion_is_the_gaussian_formula():
+    """n = 50, SSE = 2.5, k = 3 by hand: 50 ln(0.05) = -149.78661367769954, 3 ln 50 = 11.736069016284438."""
+    assert information_criterion(2.5, 50, 3) == pytest.approx(-138.0505446614151, rel=1e-12)
+    assert information_criterion(2.5, 50, 3, "aic") == pytest.approx(-149.78661367769954 + 6, rel=1e-12)
+    # one more coordinate pays only if the SSE falls by more than the factor n^(-1/n) (0.955 at n = 100; AIC:
+    # e^(-2/n) = 0.980): 5 % less SSE is worth it under BIC, 4 % is not, though both are under AIC
+    assert information_criterion(0.95, 100, 4) < information_criterion(1.0, 100, 3)
+    assert information_criterion(0.96, 100, 4) > information_criterion(1.0, 100, 3)
+    assert information_criterion(0.97, 100, 4, "aic") < information_criterion(1.0, 100, 3, "aic")
+    assert information_criterion(0.99, 100, 4, "aic") > information_criterion(1.0, 100, 3, "aic")
+    assert all(information_criterion(*bad, 3) == math.inf for bad in ((0.0, 50), (-1.0, 50), (math.nan, 50),
+                                                                      (2.5, 0)))
+
+
+def _damper_records(noise_sd: float, seed: int = 0) -> RecordSet:
+    """F = 2 x + 0.5 ẋ + 0.6 tanh(ẋ / 0.05) [kip, in, s] with white noise, written here in numpy (no library
+    effect or simulator): sine tests at the amplitudes and frequencies of the synthetic cases."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for amp, f in [(0.5, 1.0), (1.0, 1.0), (1.0, 2.0), (0.75, 1.5), (1.5, 1.0), (1.5, 2.0)]:
+        t = np.arange(201) / (100 * f)
+        w = 2 * np.pi * f
+        x, v = amp * np.sin(w * t), amp * w * np.cos(w * t)
+        y = 2.0 * x + 0.5 * v + 0.6 * np.tanh(v / 0.05) + noise_sd * rng.standard_normal(len(t))
+        out.append(Record(name=f"sine_{amp:g}in_{f:g}Hz", t=t, x=x, y=y, units={"x": "in", "y": "kip"},
+                          conditions={"amplitude_in": amp, "frequency_hz": f}))
+    return RecordSet(out, "numpy damper")
+
+
+def test_the_criterion_adds_the_missing_term_and_refuses_a_useless_one(float64):
+    """Data with three terms (spring, damper, Coulomb friction), a nominal with two, candidates Coulomb and a
+    cubic spring that the data do not have. No validation split and no margin: the training error falls with
+    any added coordinate, so the information criterion alone has to refuse the cubic spring."""
+    records = _damper_records(NOISE)
+    res = discover(records, base_model("coulomb"), candidates=["coulomb", "cubic_stiffness"],
+                   split={"held_out": {"amplitude_in": [1.5]}}, conditions=False, margin=0.0, noise_sd=NOISE, **FAST)
+    rep = res.report
+    assert [s["effect"] for s in rep["steps"]] == ["coulomb"] and rep["removed"] == []
+    assert sorted(rep["effects"]["final"]) == ["coulomb", "linear_stiffness", "viscous"]
+    assert rep["steps"][0]["new_coordinates"]["coulomb.Fc"] == pytest.approx(0.6, rel=0.05)
+    (useless,) = rep["rejected"]
+    ev = useless["evidence"]
+    assert useless["effect"] == "cubic_stiffness"
+    assert ev["val_rmse_after"] < ev["val_rmse_before"] and ev["bic_after"] > ev["bic_before"]
+    n_train = sum(len(r) for r in res.splits["train"])
+    assert n_train == 4 * 201
+    assert _coordinates_in_bic(rep["steps"][0], n_train) == pytest.approx(4, abs=1e-9)  # c, k, Fc, v_s
+    assert _coordinates_in_bic(useless, n_train) == pytest.approx(5, abs=1e-9)  # ... and k3
+    assert rep["after"]["test_rmse"] <= 1.2 * NOISE
 
 
 def test_bad_input_is_a_clear_error(float64):

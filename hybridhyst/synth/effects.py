@@ -74,6 +74,8 @@ def _effects(extra: str | None) -> dict:
     if extra is not None:
         values, _ = CASES[extra]
         entry = {"effect": extra, **values}
+        if extra == "bouc_wen":  # a purely hysteretic element (alpha = 0), as discovery adds it: alpha fixed
+            entry["fixed"] = ["alpha"]
         effects = {extra: entry, **effects} if extra == "backlash" else {**effects, extra: entry}
     return effects
 

@@ -23,6 +23,8 @@ class BoucWenHysteresis(Effect):
     Units (literal convention of the source; for seed 001 x in deg, F in Nm): k [F/x], k1 [F/x^3],
     κ [F/z], z in x units times A/D, D, A, β, γ [-] in that literal sense, n [-]. Raw Bouc–Wen
     parameters trade off (D, A, α, k); compare responses or identifiable combinations, not raw values.
+    Valid range: α ∈ [0, 1] (α [-] is the elastic share of the stiffness); a trained α is kept in (0, 1) by
+    a sigmoid, the end points (a purely hysteretic or purely elastic element) are for a fixed α.
     Shapes: (batch,); state (batch, 1).
     """
 
@@ -32,7 +34,9 @@ class BoucWenHysteresis(Effect):
     source = "Bouc 1967; Wen 1976; seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
     special_cases = (("dahl",),)  # in the discovery form F = k z: n = 1, γ = 0 is Dahl (σ0 = k, Fc = k/β)
     specs = {
-        "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "real", doc="ratio of elastic to total stiffness"),
+        # bounded (a sigmoid): outside [0, 1] one of the two springs has a negative stiffness, and the
+        # search bounds alone do not hold α there under gradient training
+        "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "bounded", doc="ratio of elastic to total stiffness"),
         "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", neutral=0.0,
                            doc="stiffness (at k = 0, with k1 = 0, the effect adds nothing)"),
         "k1": ParameterSpec(0.0, "F/x^3", (-1e9, 1e9), "real", neutral=0.0, doc="cubic stiffness (seed 001)"),
@@ -53,6 +57,11 @@ class BoucWenHysteresis(Effect):
     def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):
         if driven_by not in ("motion", "input"):
             raise ValueError(f"bouc_wen: driven_by must be 'motion' or 'input', got {driven_by!r}")
+        alpha = values.get("alpha")
+        if "alpha" not in fixed and isinstance(alpha, (int, float)) and not 0.0 < alpha < 1.0:
+            raise ValueError(f"bouc_wen: a trained alpha must lie strictly inside (0, 1), got {alpha}; for a purely "
+                             "hysteretic (alpha = 0) or purely elastic (alpha = 1) element fix it: "
+                             "fixed=['alpha']")
         fix_kappa = "kappa" in fixed
         if fix_kappa and kappa is None:
             raise ValueError("bouc_wen: fixing 'kappa' needs a kappa value")
