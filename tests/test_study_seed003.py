@@ -11,6 +11,7 @@ import pytest
 from hybridhyst.cli import study as study_cli
 from hybridhyst.cli.common import to_plain
 from hybridhyst.physics.compositions.seed003 import TABLE1
+from hybridhyst.report.collect import collect_runs
 from hybridhyst.studies.seed003 import _settings, sample_times
 
 NAME = "seed003_hybrid_pinn_piezo"
@@ -57,6 +58,14 @@ def test_reduced_study_recovers_the_nominal_and_ranks_the_models(tmp_path):
     # part of the frequency-dependent gain the nominal lacks; the data-only networks are far off after 2 epochs
     assert pooled["Hybrid-PINN"] < pooled["physics (DE nominal)"]
     assert pooled["Hybrid-PINN"] < 0.5 * min(pooled["MLP"], pooled["LSTM"], pooled["Std-PINN"])
+
+    # every network was a hybridhyst-train run of a Hydra multirun, read back by hybridhyst.report.collect: the
+    # hybrid (Tables 2-4 and the curve share its run) and the three baselines, once each
+    runs = collect_runs(tmp_path / "runs")
+    assert sorted(runs["name"]) == ["hybrid-mlp", "lstm", "mlp", "std-pinn"] and set(runs["status"]) == {"ok"}
+    assert set(runs["experiment"]) == {NAME} and summary["training_runs"] == 4
+    hybrid = runs[runs["name"] == "hybrid-mlp"].iloc[0]
+    assert hybrid["hidden"] == (128,) * 4 and hybrid["lambda_phys"] == 0.0 and hybrid["train_windows"] > 0
 
     assert json.loads((tmp_path / "summary.json").read_text())["study"] == NAME
     for name in ("identification.csv", "holdout.csv", "lambda_phys.csv", "architecture.csv", "data_efficiency.csv",

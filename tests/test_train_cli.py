@@ -1,6 +1,7 @@
-"""hybridhyst-train: every config of every group composes (and instantiates where the hardware exists), a
-run writes its directory, runs are deterministic and resumable, TensorBoard gets the promised tags, and a
-multirun with one failing job keeps the others' results (and the report lists the failure)."""
+"""hybridhyst-train: every config of every group composes and instantiates (the gpu and ddp trainers with the CPU as
+their accelerator where there is no CUDA), a run writes its directory, runs are deterministic and resumable, a
+finished run is kept by skip_finished, TensorBoard gets the promised tags, and a multirun with one failing job keeps
+the others' results (and the report lists the failure)."""
 
 from __future__ import annotations
 
@@ -15,11 +16,13 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate as hydra_instantiate
+from omegaconf import OmegaConf
 
 from hybridhyst.cli import train
 from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.nets import build_net
 from hybridhyst.physics.models import NominalModel, conditions_used
+from hybridhyst.studies import STUDIES
 
 CONF = Path(CONF_DIR)
 GROUPS = ["data", "model", "residual", "loss", "trainer", "logger", "baseline", "sweep", "experiment"]
@@ -35,26 +38,84 @@ def _options(group):
     return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
 
 
+# Hidden states of every nominal in conf/model: a hysteretic state per Bouc–Wen, Dahl or LuGre effect, plus position
+# and velocity for a driven oscillator (m ẍ + Σ forces = drive). A new model config needs its count here.
+STATE_DIMS = {
+    "bouc_wen_classic": 1, "bouc_wen_p": 1, "coulomb_viscous": 0, "dahl_friction": 1, "lugre_friction": 1,
+    "modified_bouc_wen": 1, "modified_bouc_wen_constant": 1, "vpptd_algebraic": 0, "vpptd_algebraic_linear": 0,
+    "boucwen_benchmark": 2 + 1, "linear_oscillator": 2, "piezo_attenuation": 2 + 1, "vpptd_rig": 2 + 1,
+}
+
+
+def _widths(hidden) -> list[int]:
+    """'4x128' -> [128, 128, 128, 128] (the residual configs' layers x width), parsed here, not by the library."""
+    if isinstance(hidden, str):
+        layers, width = hidden.split("x")
+        return [int(width)] * int(layers)
+    return [int(h) for h in hidden]
+
+
+def _check_residual(cfg, option):
+    """The network of a residual config: the configured layers and widths, (batch, time, 3) -> (batch, time, 1),
+    zero at the start (the hybrid starts at its nominal)."""
+    widths = _widths(cfg.residual.hidden)
+    net = build_net(cfg.residual.kind, 3, 1, cfg.residual.hidden, cfg.residual.activation).double()
+    if cfg.residual.kind == "mlp":
+        linear = [m for m in net.modules() if isinstance(m, torch.nn.Linear)]
+        assert [m.out_features for m in linear] == [*widths, 1], option
+        assert [m.in_features for m in linear] == [3, *widths], option
+    else:
+        assert (net.lstm.num_layers, net.lstm.hidden_size, net.lstm.input_size) == (len(widths), widths[0], 3)
+    out = net(torch.randn(2, 7, 3, dtype=torch.float64))
+    assert out.shape == (2, 7, 1) and torch.count_nonzero(out) == 0, option
+
+
+def _check_trainer(cfg, tmp_path, option):
+    """Every trainer config goes through the app's builder; gpu and ddp on a machine without CUDA with the
+    accelerator overridden to the CPU (ddp: two CPU processes), so everything but the device is still checked."""
+    from lightning.pytorch.accelerators import CPUAccelerator, CUDAAccelerator
+    from lightning.pytorch.strategies import DDPStrategy, SingleDeviceStrategy
+
+    wanted = cfg.trainer.accelerator
+    if wanted == "gpu" and not torch.cuda.is_available():
+        devices = 2 if cfg.trainer.strategy == "ddp" else 1
+        cfg = _compose([f"trainer={option}", "trainer.accelerator=cpu", f"trainer.devices={devices}"])
+    trainer = train.build_trainer(cfg, tmp_path)
+    accelerator = CUDAAccelerator if cfg.trainer.accelerator == "gpu" else CPUAccelerator
+    assert isinstance(trainer.accelerator, accelerator), option
+    strategy = DDPStrategy if cfg.trainer.strategy == "ddp" else SingleDeviceStrategy
+    assert isinstance(trainer.strategy, strategy), (option, type(trainer.strategy).__name__)
+    if cfg.trainer.strategy == "ddp":
+        assert trainer.num_devices == (torch.cuda.device_count() if cfg.trainer.devices == -1 else cfg.trainer.devices)
+    else:
+        assert trainer.num_devices == 1
+    assert trainer.max_epochs == cfg.trainer.max_epochs and trainer.precision == cfg.trainer.precision
+    assert trainer.gradient_clip_val == cfg.trainer.gradient_clip_val and trainer.num_nodes == cfg.trainer.num_nodes
+    assert [type(c).__name__ for c in trainer.callbacks].count("ModelCheckpoint") == 2  # best + last
+
+
 @pytest.mark.parametrize("group", GROUPS)
 def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
     assert _options(group), f"conf/{group} is empty"
     for option in _options(group):
         cfg = _compose([f"{group}={option}", f"run_dir={tmp_path}"], hydra_cfg=group == "sweep")
-        if group == "model":  # a nominal model whose parameters evaluate to finite numbers
+        if group == "model":  # a nominal model with its known states, whose parameters evaluate to finite numbers
             model = hydra_instantiate(cfg.model, _convert_="all").double()
             assert isinstance(model, NominalModel) and model.parameter_table(), option
+            assert option in STATE_DIMS, f"conf/model/{option}.yaml: add its number of states to STATE_DIMS"
+            assert model.state_dim == STATE_DIMS[option], (option, model.state_dim)
             values = model.evaluate({c: torch.full((2,), 0.05) for c in conditions_used(model)}, 2)
             assert values and all(torch.isfinite(v).all() for p in values.values() for v in p.values()), option
-        elif group == "residual":  # maps (batch, time, features) to (batch, time, 1), zero at the start
-            net = build_net(cfg.residual.kind, 3, 1, cfg.residual.hidden, cfg.residual.activation).double()
-            out = net(torch.randn(2, 7, 3, dtype=torch.float64))
-            assert out.shape == (2, 7, 1) and torch.count_nonzero(out) == 0, option
+        elif group == "residual":
+            _check_residual(cfg, option)
         elif group == "sweep":
             assert cfg.hydra.sweeper.params, f"sweep={option} sweeps nothing"
-        elif group in ("trainer", "logger") and cfg.trainer.accelerator == "cpu":
-            assert train.build_trainer(cfg, tmp_path).max_epochs == cfg.trainer.max_epochs
-        elif group in ("trainer",):
-            assert cfg.trainer.accelerator == "gpu"  # gpu/ddp: composed only (CI has no GPU)
+        elif group == "trainer":
+            _check_trainer(cfg, tmp_path, option)
+        elif group == "logger":
+            trainer = train.build_trainer(cfg, tmp_path)
+            kind = {"tensorboard": "TensorBoardLogger", "csv": "CSVLogger", "none": None}[cfg.logger.kind]
+            assert (type(trainer.logger).__name__ if trainer.logger else None) == kind, option
         elif group == "data" and option != "table":  # table needs data.path (tested in test_data.py)
             assert len(hydra_instantiate(cfg.data, _convert_="all")) > 0
         elif group in ("baseline", "loss"):  # the module each builds, on the smoke data
@@ -69,6 +130,10 @@ def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
             if cfg.app != "train":
                 with pytest.raises(ValueError, match=f"is for hybridhyst-{cfg.app}, not hybridhyst-train"):
                     train.run(cfg)
+                continue
+            if OmegaConf.is_missing(cfg.data, "path"):  # the runs of a study: the study writes their records
+                assert cfg.experiment_name in STUDIES, f"experiment={option}: data.path is left to an unknown study"
+                assert STUDIES[cfg.experiment_name].split(":")[0] in option, option
                 continue
             dm = train.build_datamodule(cfg)
             assert len(dm.records("train")) and len(dm.records("test"))
@@ -110,6 +175,21 @@ def test_same_seed_same_metrics_and_a_resumed_run_equals_an_uninterrupted_one(tm
         assert resumed["physics"][key]["value"] == pytest.approx(entry["value"], rel=1e-9)
     history = (tmp_path / "c" / "parameters.csv").read_text().splitlines()
     assert len(history) == 1 + 3  # header + epochs 0, 1, 2: the history travels with the checkpoint
+
+
+def test_skip_finished_keeps_a_finished_run_of_the_same_config_and_reruns_another(tmp_path):
+    first = train.run(_compose([*SMOKE, "+skip_finished=true", f"run_dir={tmp_path}"]))
+    ckpt = tmp_path / "checkpoints" / "last.ckpt"
+    stamp = ckpt.stat().st_mtime_ns
+    again = train.run(_compose([*SMOKE, "+skip_finished=true", f"run_dir={tmp_path}"]))
+    assert ckpt.stat().st_mtime_ns == stamp  # not trained again
+    assert again["test"]["rmse"] == first["test"]["rmse"] and again["info"]["epochs"] == first["info"]["epochs"]
+    other = train.run(_compose([*SMOKE, "+skip_finished=true", "trainer.max_epochs=1", f"run_dir={tmp_path}"]))
+    assert other["info"]["epochs"] == 1 != first["info"]["epochs"]  # another config: trained
+    assert json.loads((tmp_path / "metrics.json").read_text())["info"]["epochs"] == 1
+    assert sorted(p.name for p in (tmp_path / "checkpoints").iterdir()) == ["best.ckpt", "last.ckpt"]
+    logged = json.loads((tmp_path / "metrics.json").read_text())["logged"]
+    assert math.isfinite(logged["train/loss"]) and logged["train/loss"] >= logged["train/data_loss"] > 0
 
 
 def test_bad_input_fails_with_a_clear_error_and_a_failed_metrics_file(tmp_path):

@@ -14,7 +14,6 @@ used), ``split.held_out`` (test) and ``split.val`` (validation), each a list of 
 from __future__ import annotations
 
 import difflib
-import inspect
 import os
 import sys
 from collections.abc import Callable
@@ -24,6 +23,14 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..files import atomic_write, jsonable, write_json  # noqa: F401 (the apps' run-directory I/O)
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
+from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
+    check_kwargs,
+    check_model_conditions,
+    instantiate,
+    load_records,
+    split_options,
+    to_plain,
+)
 
 __all__ = [
     "CONF_DIR",
@@ -43,7 +50,6 @@ __all__ = [
 ]
 
 
-
 def prepare_run_dir(cfg: DictConfig) -> Path:
     """The run directory: Hydra's output dir under ``@hydra.main``, else ``cfg.run_dir``, else the cwd.
 
@@ -60,33 +66,6 @@ def prepare_run_dir(cfg: DictConfig) -> Path:
     return path
 
 
-def to_plain(node):
-    """An OmegaConf node as plain python containers (other values unchanged); a ``???`` value inside it is
-    an error naming its key (``MissingMandatoryValue``, a one-line message through ``guarded``)."""
-    from omegaconf import DictConfig, ListConfig, OmegaConf
-
-    if isinstance(node, (DictConfig, ListConfig)):
-        return OmegaConf.to_container(node, resolve=True, throw_on_missing=True)
-    return node
-
-
-def instantiate(node, **kwargs):
-    """``hydra.utils.instantiate`` that re-raises a target's ``ValueError`` as itself (not wrapped)."""
-    from hydra.errors import InstantiationException
-    from hydra.utils import instantiate as _instantiate
-
-    try:
-        return _instantiate(node, **kwargs)
-    except InstantiationException as exc:
-        from omegaconf.errors import OmegaConfBaseException
-
-        cause = exc.__cause__
-        if isinstance(cause, (ValueError, FileNotFoundError, OmegaConfBaseException)):
-            raise cause from None
-        detail = f": {cause}" if cause is not None else ""
-        raise ValueError(str(exc).splitlines()[0].rstrip(":") + detail) from exc
-
-
 def check_app(cfg: DictConfig, app: str) -> None:
     """Experiment configs say which app they belong to (``app:``); refuse one meant for another app."""
     if cfg.get("app", app) != app:
@@ -95,76 +74,6 @@ def check_app(cfg: DictConfig, app: str) -> None:
 
 
 # -- records and split: one convention for every app -----------------------------------------------------------
-SPLIT_KEYS = ("select", "held_out", "val")
-
-
-def split_options(cfg: DictConfig, keys: tuple[str, ...] = SPLIT_KEYS) -> dict:
-    """``{"select": mapping or None, "held_out": [queries], "val": [queries]}`` from ``cfg.split``.
-
-    ``split.select`` is a mapping ``{condition: value or [values]}`` (or a list of them: any matches);
-    ``split.held_out`` and ``split.val`` are lists of such queries (``RecordSet.split``), a single mapping
-    being the one-element list and ``null`` none. ``keys`` are the keys the app reads (identify: select
-    only); each must be present (a deleted key is a config error naming it) and set (``???`` is an error).
-    """
-    from ..data.splits import as_queries
-
-    if "select" in cfg:
-        raise ValueError("the record selection is split.select (a mapping {condition: [values]}), not a "
-                         "top-level select: write split.select=... instead")
-    node = cfg.split
-    out = {key: to_plain(getattr(node, key)) for key in keys}  # attribute access: a deleted key is an error
-    if "select" in out and out["select"] is not None:
-        select = out["select"]
-        if not isinstance(select, dict) and not (isinstance(select, list)
-                                                  and all(isinstance(q, dict) for q in select)):
-            raise ValueError(f"split.select must be a mapping {{condition: value or [values]}} (or null for every "
-                             f"record), got {select!r}")
-    for key, what in (("held_out", "held-out"), ("val", "validation")):
-        if key in out:
-            out[key] = as_queries(out[key], f"split.{key} ({what})")
-    return out
-
-
-def load_records(cfg: DictConfig, select=None, where: str = "split.select"):
-    """The records of ``cfg.data`` (instantiated) that match ``select`` (``where``, e.g. ``split.select``: a
-    mapping, a list of mappings, or None for every record): the one load-select-check path of the apps.
-    A selection that leaves no record is a ``ValueError`` naming ``where``."""
-    records = instantiate(cfg.data, _convert_="all")
-    if select:
-        records = records.select(select)
-    if len(records) == 0:
-        raise ValueError(f"{where} {select} leaves no records of {records.name!r}")
-    return records
-
-
-def check_kwargs(options: dict, fn: Callable, where: str, reserved: tuple[str, ...] = ()) -> dict:
-    """``options`` (a config section passed as keyword arguments to ``fn``) when every key is a keyword of
-    ``fn`` other than ``reserved`` (the ones the app passes itself); else a ``ValueError`` naming the key
-    under ``where`` and the closest keyword."""
-    params = inspect.signature(fn).parameters
-    if any(p.kind == p.VAR_KEYWORD for p in params.values()):
-        return options
-    names = [n for n, p in params.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
-             and n not in ("self", *reserved)]
-    for key in options:
-        if key not in names:
-            close = difflib.get_close_matches(str(key), names, n=1)
-            hint = f"did you mean {where}.{close[0]}? " if close else ""
-            raise ValueError(f"unknown config key {where}.{key}: {hint}{where} takes {sorted(names)}")
-    return options
-
-
-def check_model_conditions(model, split, what: str = "model") -> None:
-    """Every record of ``split`` (``Split`` or a record set) has the conditions the model's parameter functions
-    need (``physics.models.conditions_used``), as numbers; else a one-line ``ValueError`` naming the condition
-    and records."""
-    from ..data.splits import Split, check_conditions
-    from ..physics.models import conditions_used
-
-    names = conditions_used(model)
-    if names:
-        parts = split if isinstance(split, Split) else Split(list(split), [], [])
-        check_conditions(parts, names, f"{what} (a parameter as a function of a condition)")
 
 
 # -- errors ---------------------------------------------------------------------------------------------------

@@ -11,7 +11,13 @@ on the training records (``nominal_init``) unless ``nominal_state`` is given; ``
 starting nominal's own errors (``nominal``) beside the run's, and a run that ends worse on validation than the
 model it started from keeps the starting weights (``start``); the terminal shows both. A failed run still
 writes ``metrics.json`` with ``status: failed`` and the error, so a sweep's report lists it; the other jobs of
-a multirun are unaffected.
+a multirun are unaffected. ``metrics.json`` also keeps the last epoch's logged values (``logged``, e.g.
+``train/phys_loss``) and the number of training windows (``info.train_windows``). ``skip_finished: true`` (an
+experiment config's key, or ``+skip_finished=true``: a sweep re-launched after an interruption) keeps every run
+directory that already holds a finished run of the same config and trains only the others.
+
+The pieces of a run are built by ``hybridhyst.training.build`` (``build_datamodule``, ``build_module``,
+``build_trainer``); this module wires them into a run directory.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import shutil
 import time
 import warnings
 from pathlib import Path
@@ -27,104 +34,30 @@ import hydra
 import lightning as L
 import pandas as pd
 import torch
+import yaml
 from lightning.pytorch.callbacks import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from ..data.datamodule import RecordDataModule
-from ..nets import parse_hidden
-from ..training import MODULES, LoopFigures, predict_split, predictions_frame, split_metrics
-from ..training.modules import load_nominal_state
-from .common import (
-    CONF_DIR,
-    atomic_write,
-    check_app,
-    check_kwargs,
-    check_model_conditions,
-    guarded,
-    hydra_entry,
-    instantiate,
-    load_records,
-    prepare_run_dir,
-    split_options,
-    to_plain,
-    torch_settings,
-    write_json,
-)
+from ..training import predict_split, predictions_frame, split_metrics
+from ..training.build import build_datamodule, build_trainer, nominal_start
+from ..training.build import build_module as _build_module
+from ..training.build import run_info as info
+from ..training.config import check_kwargs, to_plain
+from .common import CONF_DIR, atomic_write, check_app, guarded, hydra_entry, prepare_run_dir, torch_settings, write_json
 
-__all__ = ["StartModel", "build_datamodule", "build_module", "build_trainer", "identify_nominal", "main",
-           "nominal_start", "run"]
+# build_datamodule, build_trainer, nominal_start and info (run_info) come from hybridhyst.training.build,
+# re-exported for the app's callers and tests; build_module here adds the nominal's identification
+__all__ = ["StartModel", "build_datamodule", "build_module", "build_trainer", "finished_run", "identify_nominal",
+           "info", "main", "nominal_start", "run", "summary"]
 
-DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std-pinn"}
-NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
-
-
-def build_datamodule(cfg: DictConfig) -> RecordDataModule:
-    """Records from ``cfg.data`` (``split.select``) in a ``RecordDataModule`` (``split.held_out`` -> test,
-    ``split.val`` -> validation); the conditions fed to the networks must be numbers in every record."""
-    from ..data.splits import check_conditions
-
-    split = split_options(cfg)
-    d = check_kwargs(to_plain(cfg.datamodule), RecordDataModule.__init__, "datamodule",
-                     reserved=("records", "held_out", "val", "seed"))
-    records = load_records(cfg, split["select"])
-    check_conditions(records.split(held_out=split["held_out"], val=split["val"]), d.get("conditions") or [],
-                     "datamodule.conditions")
-    return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed), **d)
+SPLITS = ("train", "val", "test")
 
 
 def build_module(cfg: DictConfig, dm: RecordDataModule):
-    """The LightningModule named by ``cfg.module`` with its network (``cfg.residual``) and loss settings. A
-    nominal (physics, hybrid, std_pinn) is identified on the training records first (``identify_nominal``)
-    when ``nominal_start`` says ``"identify"`` and the run does not resume from ``ckpt_path``."""
-    kind = cfg.module
-    if kind not in MODULES:
-        raise ValueError(f"unknown module {kind!r}; choose from {sorted(MODULES)}")
-    loss, net = cfg.loss, cfg.residual
-    common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names, "units": dm.units,
-              "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
-              "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
-              "lambda_phys": float(loss.lambda_phys)}
-    sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
-    if kind in ("physics", "hybrid", "std_pinn"):
-        nominal = instantiate(cfg.model, _convert_="all").double()
-        check_model_conditions(nominal, dm.split, "model")
-        if cfg.get("nominal_state"):
-            nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
-        identified, start = None, nominal_start(cfg)
-        if start not in ("nominal_state", "init_noise", "identify", "model"):
-            raise ValueError(f"unknown nominal_init.method {start!r}; choose 'identify' or 'none'")
-        if start == "identify" and not cfg.get("ckpt_path"):  # resuming: the checkpoint has them
-            identified = identify_nominal(cfg, dm, nominal)
-    if kind == "physics":
-        module = MODULES[kind](nominal, init_noise=loss.get("init_noise"), prior_weight=float(loss.prior_weight),
-                               prior_kind=loss.prior_kind, features=list(cfg.features), **sim, **common)
-    elif kind == "hybrid":
-        module = MODULES[kind](nominal, residual=net.kind, hidden=net.hidden, activation=net.activation,
-                               freeze_nominal=bool(cfg.freeze_nominal), features=list(cfg.features),
-                               placement=str(cfg.get("placement", "output")),
-                               latent_states=int(cfg.get("latent_states", 0)), **sim, **common)
-    elif kind == "std_pinn":
-        module = MODULES[kind](nominal, hidden=net.hidden, activation=net.activation,
-                               freeze_nominal=bool(cfg.freeze_nominal), **sim, **common)
-    else:
-        return MODULES[kind](hidden=net.hidden, activation=net.activation, features=list(cfg.features), **common)
-    module.nominal_identified = identified  # identification summary (None without one), for metrics.json
-    return module
-
-
-def nominal_start(cfg: DictConfig) -> str | None:
-    """Where the nominal of ``cfg.module`` starts: ``"nominal_state"`` (a given state dict), ``"init_noise"``
-    (the physics module's seed 000 re-initialisation near zero), ``"identify"`` (``nominal_init.method``:
-    batched identification on the training records) or ``"model"`` (the model config's values); None for
-    modules without a nominal."""
-    if cfg.module not in NOMINAL_MODULES:
-        return None
-    if cfg.get("nominal_state"):
-        return "nominal_state"
-    if cfg.module == "physics" and cfg.loss.get("init_noise"):
-        return "init_noise"
-    method = str((cfg.get("nominal_init") or {}).get("method") or "none")
-    return "model" if method == "none" else method  # build_module refuses an unknown method
+    """``hybridhyst.training.build.build_module`` with the nominal identified first (``identify_nominal``) when
+    ``nominal_init.method`` is ``identify``: the module a run trains."""
+    return _build_module(cfg, dm, identify=identify_nominal)
 
 
 def _identify_settings(cfg: DictConfig) -> dict:
@@ -159,66 +92,6 @@ def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
                          "starts from the model config's values)") from e
     return {"rmse": result.rmse, "wall_s": result.wall_s, "records": len(records), "search": result.search,
             "refine": str(opts["refine"]), "evaluations": result.evaluations, "x": result.x}
-
-
-def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = ()) -> L.Trainer:
-    """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
-    ``callbacks``."""
-    from lightning.pytorch.callbacks import ModelCheckpoint
-
-    t = cfg.trainer
-    # resuming keeps writing into the checkpoint's own folder, so the best score so far carries over
-    ckpt_dir = Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else run_dir / "checkpoints"
-    # best.ckpt: the best validation RMSE; last.ckpt: every epoch. Lightning >= 2.6 writes save_last's copy only
-    # when a top-k checkpoint is saved at the same step (last.ckpt would be the best one, not the last), so
-    # last.ckpt has a checkpoint callback of its own (listed second: it saves the best one's updated state)
-    callbacks = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=False,
-                                 filename="best", save_top_k=1),
-                 ModelCheckpoint(dirpath=ckpt_dir, monitor=None, save_top_k=1, filename="last",
-                                 enable_version_counter=False), *callbacks]
-    logger = False
-    if cfg.logger.kind == "tensorboard":
-        from lightning.pytorch.loggers import TensorBoardLogger
-
-        logger = TensorBoardLogger(save_dir=str(run_dir), name="tensorboard", version="", default_hp_metric=False)
-        callbacks.append(LoopFigures(int(cfg.logger.loop_every_n_epochs), int(cfg.logger.max_loop_figures)))
-    elif cfg.logger.kind == "csv":
-        from lightning.pytorch.loggers import CSVLogger
-
-        logger = CSVLogger(save_dir=str(run_dir), name="csv", version="")
-    elif cfg.logger.kind != "none":
-        raise ValueError(f"unknown logger {cfg.logger.kind!r}; choose tensorboard, csv or none")
-    extra = to_plain(t.get("extra")) or {}
-    return L.Trainer(max_epochs=int(t.max_epochs), accelerator=t.accelerator, devices=t.devices,
-                     strategy=t.strategy, num_nodes=int(t.num_nodes), precision=t.precision,
-                     gradient_clip_val=t.gradient_clip_val, log_every_n_steps=int(t.log_every_n_steps),
-                     check_val_every_n_epoch=int(t.check_val_every_n_epoch), deterministic=bool(t.deterministic),
-                     limit_train_batches=t.limit_train_batches, limit_val_batches=t.limit_val_batches,
-                     enable_progress_bar=bool(t.enable_progress_bar), enable_model_summary=False,
-                     default_root_dir=str(run_dir), logger=logger, callbacks=callbacks, **extra)
-
-
-def info(cfg: DictConfig) -> dict:
-    """What identifies this run in a report (everything but the seed makes a configuration)."""
-    kind = cfg.module
-    uses_net = kind != "physics"
-    name = DISPLAY.get(kind, kind)
-    if kind == "hybrid":  # hybrid-mlp, hybrid-lstm (the output branch) or hybrid-dynamics (inside the equations)
-        name = "hybrid-dynamics" if cfg.get("placement") == "dynamics" else f"hybrid-{cfg.residual.kind}"
-    model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
-        if kind in ("physics", "hybrid", "std_pinn") else None
-    return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,
-            "hidden": parse_hidden(cfg.residual.hidden) if uses_net else None,
-            "lambda_phys": float(cfg.loss.lambda_phys) if kind in ("hybrid", "std_pinn") else 0.0,
-            "seed": int(cfg.seed), "train_fraction": float(cfg.datamodule.train_fraction),
-            "conditions": ",".join(cfg.datamodule.conditions),
-            "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
-            "placement": str(cfg.get("placement", "output")) if kind == "hybrid" else None,
-            "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
-            "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}
-
-
-SPLITS = ("train", "val", "test")
 
 
 def _monitor(dm: RecordDataModule) -> str:
@@ -267,9 +140,19 @@ class StartModel(Callback):
 
 
 def run(cfg: DictConfig) -> dict:
-    """Train, evaluate every split on whole records, write the run directory; returns ``metrics.json``."""
+    """Train, evaluate every split on whole records, write the run directory; returns ``metrics.json``.
+
+    With ``skip_finished: true`` a run directory that already holds a finished run (``finished_run``) of this
+    very config is kept and its ``metrics.json`` returned; otherwise an earlier run's ``metrics.json`` and
+    ``checkpoints/`` there are removed first (unless resuming), so that neither is mistaken for this run's."""
     check_app(cfg, "train")
     start = time.perf_counter()
+    if cfg.get("skip_finished") and not cfg.get("ckpt_path"):
+        done = finished_run(cfg)
+        if done is not None:
+            print(f"{done['info']['name']}: finished earlier with this config, kept: {_output_dir(cfg)}", flush=True)
+            return done
+        _clear(_output_dir(cfg))
     run_dir = prepare_run_dir(cfg)
     meta = info(cfg)
     try:
@@ -277,6 +160,35 @@ def run(cfg: DictConfig) -> dict:
     except Exception as e:
         write_json(run_dir / "metrics.json", {"status": "failed", "error": f"{type(e).__name__}: {e}", "info": meta})
         raise
+
+
+def _output_dir(cfg: DictConfig) -> Path:
+    """The run directory ``prepare_run_dir`` uses (Hydra's output dir, else ``cfg.run_dir``, else the cwd)."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if HydraConfig.initialized():
+        return Path(HydraConfig.get().runtime.output_dir)
+    return Path(cfg.get("run_dir") or Path.cwd())
+
+
+def finished_run(cfg: DictConfig) -> dict | None:
+    """The ``metrics.json`` of a finished run (``status: ok``) in ``cfg``'s run directory whose ``config.yaml``
+    equals ``cfg`` (resolved, as plain containers: key order does not matter); None otherwise."""
+    run_dir = _output_dir(cfg)
+    try:
+        metrics = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))
+        earlier = OmegaConf.to_container(OmegaConf.load(run_dir / "config.yaml"), resolve=True)
+    except (OSError, ValueError, yaml.YAMLError):
+        return None
+    if not isinstance(metrics, dict) or metrics.get("status") != "ok":
+        return None
+    return metrics if earlier == OmegaConf.to_container(cfg, resolve=True) else None
+
+
+def _clear(run_dir: Path) -> None:
+    """Remove an earlier run's ``metrics.json`` and checkpoints from ``run_dir`` (a new run starts there)."""
+    (run_dir / "metrics.json").unlink(missing_ok=True)
+    shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
 
 
 def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
@@ -310,10 +222,12 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         return {}
     metrics = {s: split_metrics(p) for s, p in preds.items()}
     meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=int(trainer.current_epoch),
+                train_windows=len(dm.train_dataloader().dataset),
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},
                 evaluated="best" if best and cfg.evaluate_best else "last")
+    logged = {k: float(v) for k, v in trainer.callback_metrics.items()}  # the last epoch's logged values
     result = {"status": "ok", **metrics, "info": meta, "physics": _physics(module), "nominal": starting.nominal,
-              "start": floor, "wall_s": time.perf_counter() - start}
+              "start": floor, "logged": logged, "wall_s": time.perf_counter() - start}
     if cfg.predictions:
         frame = predictions_frame([p for s in ("train", "val", "test") for p in preds[s]])
         atomic_write(run_dir / "predictions.parquet", lambda p: frame.to_parquet(p, index=False))
@@ -400,8 +314,8 @@ def _hydra_main(cfg: DictConfig) -> float:
         logging.getLogger(__name__).error("run failed, scored +inf: %s: %s", type(exc).__name__, exc)
         return math.inf
     scores = result.get("val") or result.get("train") or {}
-    rmse = float(scores.get("rmse", math.nan))
-    return rmse if math.isfinite(rmse) else math.inf
+    rmse = scores.get("rmse")  # None: not finite (a run kept by skip_finished is read back from metrics.json)
+    return float(rmse) if rmse is not None and math.isfinite(rmse) else math.inf
 
 
 def main() -> None:

@@ -28,12 +28,12 @@ __all__ = [
 SPLITS = ("test", "val", "train")
 METRICS = ("rmse", "mae", "nrmse", "n")
 INFO_FIELDS = ("module", "name", "residual", "placement", "hidden", "lambda_phys", "seed", "train_fraction",
-               "n_parameters", "train_time_s", "epochs", "data", "model", "experiment")
+               "n_parameters", "train_time_s", "epochs", "train_windows", "data", "model", "experiment")
 # Outcomes of a run rather than settings: runs that differ only in these belong to one configuration.
-MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs")
+MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs", "train_windows")
 UNIT_FIELDS = ("unit_x", "unit_F", "unit_t")
 _BASE = ("path", "status", "error", "predictions")
-_METRIC_COLUMNS = tuple(f"{split}_{m}" for split in SPLITS for m in METRICS) + ("test_per_condition",)
+_METRIC_COLUMNS = tuple(f"{split}_{m}" for split in SPLITS for m in METRICS) + ("test_per_condition", "logged")
 
 
 def _natural_key(path: Path) -> list:
@@ -111,6 +111,8 @@ def _split_columns(metrics: dict) -> dict:
         for m in METRICS:
             out[f"{split}_{m}"] = _number(scores.get(m))
     out["test_per_condition"] = (metrics.get("test") or {}).get("per_condition") or {}
+    logged = metrics.get("logged")
+    out["logged"] = {k: _number(v) for k, v in logged.items()} if isinstance(logged, dict) else {}
     return out
 
 
@@ -161,7 +163,8 @@ def collect_runs(dirs: str | Path | Iterable[str | Path]) -> pd.DataFrame:
     Columns: ``path``, ``status`` ("ok", "failed" or "invalid"), ``error``, ``predictions`` (path of
     ``predictions.parquet`` or None), the info fields (``hidden`` as a tuple, ``units`` as ``unit_x``,
     ``unit_F``, ``unit_t``), ``{test,val,train}_{rmse,mae,nrmse,n}`` (errors in the force unit
-    ``unit_F``; NaN where absent), ``test_per_condition`` (dict) and ``config``, a JSON key of the
+    ``unit_F``; NaN where absent), ``test_per_condition`` (dict), ``logged`` (the last epoch's logged values,
+    ``{"train/phys_loss": ...}``; empty for runs written before it) and ``config``, a JSON key of the
     configuration fields (:func:`config_fields`) shared by the seeds of one configuration.
 
     Raises
@@ -173,7 +176,8 @@ def collect_runs(dirs: str | Path | Iterable[str | Path]) -> pd.DataFrame:
     extra = sorted({k for row in rows for k in row} - {*_BASE, *INFO_FIELDS, *UNIT_FIELDS, *_METRIC_COLUMNS})
     columns = [*_BASE, *INFO_FIELDS, *extra, *UNIT_FIELDS, *_METRIC_COLUMNS]
     runs = pd.DataFrame(rows).reindex(columns=columns)
-    runs["test_per_condition"] = [v if isinstance(v, dict) else {} for v in runs["test_per_condition"]]
+    for column in ("test_per_condition", "logged"):
+        runs[column] = [v if isinstance(v, dict) else {} for v in runs[column]]
     fields = config_fields(runs)
     runs["config"] = [json.dumps({f: _plain(row[f]) for f in fields}, sort_keys=True)
                       for _, row in runs.iterrows()]

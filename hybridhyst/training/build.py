@@ -1,0 +1,159 @@
+"""The pieces of one training run, built from a composed ``hybridhyst-train`` config (``conf/train.yaml``).
+
+``build_datamodule`` (records and split), ``build_module`` (the LightningModule with its network, loss and
+nominal start), ``build_trainer`` (checkpoints, logger, loop figures) and ``run_info`` (what identifies the run
+in a report). The app ``hybridhyst.cli.train`` wires them into a run directory; tests and callers below the
+apps use them directly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import lightning as L
+from omegaconf import DictConfig
+
+from ..data.datamodule import RecordDataModule
+from ..nets import parse_hidden
+from .callbacks import LoopFigures
+from .config import check_kwargs, check_model_conditions, instantiate, load_records, split_options, to_plain
+from .modules import MODULES, load_nominal_state
+
+__all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "nominal_start", "run_info"]
+
+DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std-pinn"}
+NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
+
+
+def build_datamodule(cfg: DictConfig) -> RecordDataModule:
+    """Records from ``cfg.data`` (``split.select``) in a ``RecordDataModule`` (``split.held_out`` -> test,
+    ``split.val`` -> validation); the conditions fed to the networks must be numbers in every record."""
+    from ..data.splits import check_conditions
+
+    split = split_options(cfg)
+    d = check_kwargs(to_plain(cfg.datamodule), RecordDataModule.__init__, "datamodule",
+                     reserved=("records", "held_out", "val", "seed"))
+    records = load_records(cfg, split["select"])
+    check_conditions(records.split(held_out=split["held_out"], val=split["val"]), d.get("conditions") or [],
+                     "datamodule.conditions")
+    return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed), **d)
+
+
+def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | None = None):
+    """The LightningModule named by ``cfg.module`` with its network (``cfg.residual``) and loss settings.
+
+    A nominal (physics, hybrid, std_pinn) is fitted to the training records first by ``identify(cfg, dm,
+    nominal) -> summary`` when ``nominal_start`` says ``"identify"`` and the run does not resume from
+    ``ckpt_path`` (training does not import ``hybridhyst.identify``: the app ``hybridhyst.cli.train`` passes its
+    ``identify_nominal``); the summary goes to ``module.nominal_identified`` (metrics.json)."""
+    kind = cfg.module
+    if kind not in MODULES:
+        raise ValueError(f"unknown module {kind!r}; choose from {sorted(MODULES)}")
+    loss, net = cfg.loss, cfg.residual
+    common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names, "units": dm.units,
+              "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
+              "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
+              "lambda_phys": float(loss.lambda_phys)}
+    sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
+    if kind in NOMINAL_MODULES:
+        nominal = instantiate(cfg.model, _convert_="all").double()
+        check_model_conditions(nominal, dm.split, "model")
+        if cfg.get("nominal_state"):
+            nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
+        identified, start = None, nominal_start(cfg)
+        if start not in ("nominal_state", "init_noise", "identify", "model"):
+            raise ValueError(f"unknown nominal_init.method {start!r}; choose 'identify' or 'none'")
+        if start == "identify" and not cfg.get("ckpt_path"):  # resuming: the checkpoint has them
+            if identify is None:
+                raise ValueError("nominal_init.method=identify needs an identification step: build_module(cfg, dm, "
+                                 "identify=hybridhyst.cli.train.identify_nominal), or nominal_init.method=none")
+            identified = identify(cfg, dm, nominal)
+    if kind == "physics":
+        module = MODULES[kind](nominal, init_noise=loss.get("init_noise"), prior_weight=float(loss.prior_weight),
+                               prior_kind=loss.prior_kind, features=list(cfg.features), **sim, **common)
+    elif kind == "hybrid":
+        module = MODULES[kind](nominal, residual=net.kind, hidden=net.hidden, activation=net.activation,
+                               freeze_nominal=bool(cfg.freeze_nominal), features=list(cfg.features),
+                               placement=str(cfg.get("placement", "output")),
+                               latent_states=int(cfg.get("latent_states", 0)), **sim, **common)
+    elif kind == "std_pinn":
+        module = MODULES[kind](nominal, hidden=net.hidden, activation=net.activation,
+                               freeze_nominal=bool(cfg.freeze_nominal), **sim, **common)
+    else:
+        return MODULES[kind](hidden=net.hidden, activation=net.activation, features=list(cfg.features), **common)
+    module.nominal_identified = identified  # identification summary (None without one), for metrics.json
+    return module
+
+
+def nominal_start(cfg: DictConfig) -> str | None:
+    """Where the nominal of ``cfg.module`` starts: ``"nominal_state"`` (a given state dict), ``"init_noise"``
+    (the physics module's seed 000 re-initialisation near zero), ``"identify"`` (``nominal_init.method``:
+    batched identification on the training records) or ``"model"`` (the model config's values); None for
+    modules without a nominal."""
+    if cfg.module not in NOMINAL_MODULES:
+        return None
+    if cfg.get("nominal_state"):
+        return "nominal_state"
+    if cfg.module == "physics" and cfg.loss.get("init_noise"):
+        return "init_noise"
+    method = str((cfg.get("nominal_init") or {}).get("method") or "none")
+    return "model" if method == "none" else method  # build_module refuses an unknown method
+
+
+def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = ()) -> L.Trainer:
+    """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
+    ``callbacks``; ``cfg.trainer`` gives the accelerator, devices, strategy and the loop's settings."""
+    from lightning.pytorch.callbacks import ModelCheckpoint
+
+    t = cfg.trainer
+    # resuming keeps writing into the checkpoint's own folder, so the best score so far carries over
+    ckpt_dir = Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else Path(run_dir) / "checkpoints"
+    # best.ckpt: the best validation RMSE; last.ckpt: every epoch. Lightning >= 2.6 writes save_last's copy only
+    # when a top-k checkpoint is saved at the same step (last.ckpt would be the best one, not the last), so
+    # last.ckpt has a checkpoint callback of its own (listed second: it saves the best one's updated state)
+    callbacks = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=False,
+                                 filename="best", save_top_k=1),
+                 ModelCheckpoint(dirpath=ckpt_dir, monitor=None, save_top_k=1, filename="last",
+                                 enable_version_counter=False), *callbacks]
+    logger = False
+    if cfg.logger.kind == "tensorboard":
+        from lightning.pytorch.loggers import TensorBoardLogger
+
+        logger = TensorBoardLogger(save_dir=str(run_dir), name="tensorboard", version="", default_hp_metric=False)
+        callbacks.append(LoopFigures(int(cfg.logger.loop_every_n_epochs), int(cfg.logger.max_loop_figures)))
+    elif cfg.logger.kind == "csv":
+        from lightning.pytorch.loggers import CSVLogger
+
+        logger = CSVLogger(save_dir=str(run_dir), name="csv", version="")
+    elif cfg.logger.kind != "none":
+        raise ValueError(f"unknown logger {cfg.logger.kind!r}; choose tensorboard, csv or none")
+    extra = to_plain(t.get("extra")) or {}
+    return L.Trainer(max_epochs=int(t.max_epochs), accelerator=t.accelerator, devices=t.devices,
+                     strategy=t.strategy, num_nodes=int(t.num_nodes), precision=t.precision,
+                     gradient_clip_val=t.gradient_clip_val, log_every_n_steps=int(t.log_every_n_steps),
+                     check_val_every_n_epoch=int(t.check_val_every_n_epoch), deterministic=bool(t.deterministic),
+                     limit_train_batches=t.limit_train_batches, limit_val_batches=t.limit_val_batches,
+                     enable_progress_bar=bool(t.enable_progress_bar), enable_model_summary=False,
+                     default_root_dir=str(run_dir), logger=logger, callbacks=callbacks, **extra)
+
+
+def run_info(cfg: DictConfig) -> dict:
+    """What identifies a run in a report (``metrics.json``'s ``info``; everything but the seed makes a
+    configuration)."""
+    kind = cfg.module
+    uses_net = kind != "physics"
+    name = DISPLAY.get(kind, kind)
+    if kind == "hybrid":  # hybrid-mlp, hybrid-lstm (the output branch) or hybrid-dynamics (inside the equations)
+        name = "hybrid-dynamics" if cfg.get("placement") == "dynamics" else f"hybrid-{cfg.residual.kind}"
+    model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
+        if kind in NOMINAL_MODULES else None
+    return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,
+            "hidden": parse_hidden(cfg.residual.hidden) if uses_net else None,
+            "lambda_phys": float(cfg.loss.lambda_phys) if kind in ("hybrid", "std_pinn") else 0.0,
+            "seed": int(cfg.seed), "train_fraction": float(cfg.datamodule.train_fraction),
+            "conditions": ",".join(cfg.datamodule.conditions),
+            "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
+            "placement": str(cfg.get("placement", "output")) if kind == "hybrid" else None,
+            "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
+            "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}
