@@ -89,3 +89,12 @@ def test_seed003_piezo_output_at_80_volts_is_about_170_um(float64):
     with torch.no_grad():
         x = simulate(model, u[None], t=t, substeps=2)[0, :, 0]
     assert x[-1].item() == pytest.approx(170.0, rel=0.05)
+
+
+def test_seed000_viscous_coefficient_is_reported_per_radian():
+    """c multiplies φ̇ in rad/s (DESIGN.md "Units"), so reports give it in Nm·s/rad, not the model's Nm·s/deg."""
+    table = vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0).parameter_table()
+    assert table["viscous"]["c"]["unit"] == "Nm*s/rad"
+    assert table["stiffness"]["k"]["unit"] == "Nm/deg"
+    literal = vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0, velocity_unit="deg/s").parameter_table()
+    assert literal["viscous"]["c"]["unit"] == "Nm*s/deg"

@@ -41,7 +41,7 @@ def vpptd_algebraic(c: float = 6.7, k: float = 0.65, k2: float = 0.0055, Ms: flo
         raise ValueError(f"velocity_unit must be 'rad/s' or 'deg/s', got {velocity_unit!r}")
     scale = RAD_PER_DEG if velocity_unit == "rad/s" else 1.0
     effects = {
-        "viscous": Viscous(c=c, velocity_scale=scale),
+        "viscous": Viscous(c=c, velocity_scale=scale, scaled_unit="rad" if velocity_unit == "rad/s" else None),
         "stiffness": LinearStiffness(k=k),
         "cubic": EFFECTS["cubic_stiffness"](k3=k2),
         "friction": Coulomb(Fc=Ms, v_s=sign_smoothing, fixed=["v_s"]),

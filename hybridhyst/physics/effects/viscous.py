@@ -15,7 +15,8 @@ class Viscous(Effect):
 
     ``s`` (``velocity_scale``, a fixed constant) converts the velocity unit when a source quotes c in
     another one: seed 000's c multiplies φ̇ in rad/s while φ is in deg, so its composition uses
-    s = π/180. Units: c [F*t/x] (with s = 1). Shapes: (batch,).
+    s = π/180 and ``scaled_unit="rad"`` (the unit of x after scaling, which c's unit then carries).
+    Units: c [F*t/x] (with s = 1), c [F*t/scaled_unit] otherwise. Shapes: (batch,).
     Source: seeds 000 (eq. 1), 001 (eq. 1), 003 (eq. 1), 004 (eq. 1).
     """
 
@@ -26,11 +27,17 @@ class Viscous(Effect):
         "c": ParameterSpec(0.0, "F*t/x", (0.0, 1e6), "nonnegative", neutral=0.0, doc="viscous coefficient"),
     }
 
-    def __init__(self, velocity_scale: float = 1.0, **values):
+    def __init__(self, velocity_scale: float = 1.0, scaled_unit: str | None = None, **values):
         super().__init__(**values)
         if not math.isfinite(velocity_scale) or velocity_scale <= 0:
             raise ValueError(f"viscous: velocity_scale must be a positive number, got {velocity_scale}")
+        self.scaled_unit = scaled_unit
         self.register_buffer("velocity_scale", torch.tensor(float(velocity_scale), dtype=torch.get_default_dtype()))
+
+    def describe(self, units: dict[str, str] | None = None) -> dict[str, dict[str, str]]:
+        if self.scaled_unit and units:
+            units = {**units, "x": self.scaled_unit}
+        return super().describe(units)
 
     def force(self, p, kin: Kinematics, state):
         return p["c"] * float(self.velocity_scale) * kin.v
