@@ -41,8 +41,8 @@ def test_table2_diverges_and_the_fits_beat_monte_carlo(reduced_study):
     assert (err["identify"] < 20).all() and (err["identify"] < err["Monte Carlo (uniform)"]).all()
     bwp = summary["bwp"]
     # the reduced budget (CMA-ES pop 32 x 20 generations, 15 LM steps) leaves the joint fit short of the full
-    # study's (min R² 0.991, max error 9.5 % re-run 2026-11-24): since cma's CMA-ES replaced the hand-written one the reduced run
-    # ends at R² 0.975, 15.8 % (it was 0.992, 9.1 %); a broken joint fit ends far below both
+    # study's (min R² 0.991, max error 9.5 %, re-run 2026-11-24): since cma's CMA-ES replaced the hand-written
+    # one the reduced run ends at R² 0.975, 15.8 % (it was 0.992, 9.1 %); a broken joint fit ends far below both
     assert bwp["min_R2"] > 0.97 and bwp["max_error_pct"] < 17.0 and bwp["coordinates"] == 19
     assert {"metrics.png", "loops.png"} <= {p.name for p in run_dir.glob("*.png")}
 
