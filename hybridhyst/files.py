@@ -1,4 +1,4 @@
-"""Files a run writes: atomic writes (temp file + rename) and plain JSON.
+"""Files a run writes: its run directory, atomic writes (temp file + rename) and plain JSON.
 
 Below every package that writes results (apps, reports, studies, discovery), so none of them reaches up into
 ``cli`` for it. An interrupted run never leaves a half-written file that a report would read.
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-__all__ = ["atomic_write", "jsonable", "write_json"]
+__all__ = ["atomic_write", "jsonable", "prepare_run_dir", "write_json"]
 
 
 @contextlib.contextmanager
@@ -73,3 +73,18 @@ def jsonable(obj):
 def write_json(path: Path | str, obj) -> Path:
     """Atomic JSON write (temp file + ``os.replace``)."""
     return atomic_write(path, json.dumps(jsonable(obj), indent=2) + "\n")
+
+
+def prepare_run_dir(cfg) -> Path:
+    """The run directory of a Hydra config: Hydra's output dir under ``@hydra.main``, else ``cfg.run_dir``,
+    else the cwd. The resolved config is written there as ``config.yaml``."""
+    from hydra.core.hydra_config import HydraConfig
+    from omegaconf import OmegaConf
+
+    if HydraConfig.initialized():
+        path = Path(HydraConfig.get().runtime.output_dir)
+    else:
+        path = Path(cfg.get("run_dir") or os.getcwd())
+    path.mkdir(parents=True, exist_ok=True)
+    atomic_write(path / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
+    return path

@@ -17,11 +17,10 @@ import difflib
 import os
 import sys
 from collections.abc import Callable
-from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from ..files import atomic_write, jsonable, write_json  # noqa: F401 (the apps' run-directory I/O)
+from ..files import atomic_write, jsonable, prepare_run_dir, write_json  # noqa: F401 (the apps' run-directory I/O)
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
 from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
     check_kwargs,
@@ -50,22 +49,6 @@ __all__ = [
 ]
 
 
-def prepare_run_dir(cfg: DictConfig) -> Path:
-    """The run directory: Hydra's output dir under ``@hydra.main``, else ``cfg.run_dir``, else the cwd.
-
-    The resolved config is written there as ``config.yaml``.
-    """
-    from hydra.core.hydra_config import HydraConfig
-
-    if HydraConfig.initialized():
-        path = Path(HydraConfig.get().runtime.output_dir)
-    else:
-        path = Path(cfg.get("run_dir") or os.getcwd())
-    path.mkdir(parents=True, exist_ok=True)
-    atomic_write(path / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
-    return path
-
-
 def check_app(cfg: DictConfig, app: str) -> None:
     """Experiment configs say which app they belong to (``app:``); refuse one meant for another app."""
     if cfg.get("app", app) != app:
@@ -87,7 +70,7 @@ _VALUE_HINTS = {
 
 def _missing_keys(cfg) -> list[str]:
     """Keys of ``cfg`` whose value is ``???`` (nodes that cannot be read are skipped)."""
-    from omegaconf import DictConfig, ListConfig, OmegaConf
+    from omegaconf import DictConfig, ListConfig
 
     out: list[str] = []
 
