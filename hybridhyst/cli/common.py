@@ -1,4 +1,6 @@
-"""Helpers shared by the Hydra apps: config location, run directory, records and split, atomic writes, errors.
+"""What the Hydra apps share: config errors as one-line messages, app checks, and re-exports of the run
+directory and atomic writes (``hybridhyst.files``), settings (``hybridhyst.settings``) and the config readers
+(``hybridhyst.training.config``).
 
 Every app is a plain ``run(cfg) -> dict`` (tests call it with a composed config) plus a thin
 ``@hydra.main`` wrapper that goes through ``guarded`` so that a ``ValueError`` (bad data, bad option) or a
