@@ -75,8 +75,8 @@ def sweep_records(model, cases, *, cycles: int, samples_per_cycle: int, max_inte
     with torch.no_grad():
         ys = simulate(model, shells, substeps=substeps, backend="fast")
     rng = np.random.default_rng(seed)
-    return RecordSet([Record(r.name, r.t, r.x, y[:, 0].numpy() + noise_um * rng.standard_normal(len(r)),
-                             conditions=r.conditions, units=r.units) for r, y in zip(shells, ys)], "piezo_sweeps")
+    return RecordSet([Record(r.name, r.t, r.x, y[:, 0].numpy(), conditions=r.conditions, units=r.units)
+                      .with_noise(noise_um, rng) for r, y in zip(shells, ys)], "piezo_sweeps")
 
 
 # -- identification ---------------------------------------------------------------------------------------
