@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-__all__ = ["atomic_write", "jsonable", "prepare_run_dir", "write_json"]
+__all__ = ["atomic_write", "jsonable", "prepare_run_dir", "run_dir_path", "write_json"]
 
 
 @contextlib.contextmanager
@@ -75,16 +75,21 @@ def write_json(path: Path | str, obj) -> Path:
     return atomic_write(path, json.dumps(jsonable(obj), indent=2) + "\n")
 
 
-def prepare_run_dir(cfg) -> Path:
+def run_dir_path(cfg) -> Path:
     """The run directory of a Hydra config: Hydra's output dir under ``@hydra.main``, else ``cfg.run_dir``,
-    else the cwd. The resolved config is written there as ``config.yaml``."""
+    else the cwd (nothing is created)."""
     from hydra.core.hydra_config import HydraConfig
-    from omegaconf import OmegaConf
 
     if HydraConfig.initialized():
-        path = Path(HydraConfig.get().runtime.output_dir)
-    else:
-        path = Path(cfg.get("run_dir") or os.getcwd())
+        return Path(HydraConfig.get().runtime.output_dir)
+    return Path(cfg.get("run_dir") or os.getcwd())
+
+
+def prepare_run_dir(cfg) -> Path:
+    """``run_dir_path(cfg)``, created, with the resolved config written there as ``config.yaml``."""
+    from omegaconf import OmegaConf
+
+    path = run_dir_path(cfg)
     path.mkdir(parents=True, exist_ok=True)
     atomic_write(path / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
     return path

@@ -95,6 +95,10 @@ def test_seed000_viscous_coefficient_is_reported_per_radian():
     """c multiplies φ̇ in rad/s (DESIGN.md "Units"), so reports give it in Nm·s/rad, not the model's Nm·s/deg."""
     table = vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0).parameter_table()
     assert table["viscous"]["c"]["unit"] == "Nm*s/rad"
+    from hybridhyst.identify import SearchSpace  # identification's tables read the same unit
+
+    units = {c.name: c.unit for c in SearchSpace(vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0)).coordinates}
+    assert units["viscous.c"] == "Nm*s/rad" and units["stiffness.k"] == "Nm/deg"
     assert table["stiffness"]["k"]["unit"] == "Nm/deg"
     literal = vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0, velocity_unit="deg/s").parameter_table()
     assert literal["viscous"]["c"]["unit"] == "Nm*s/deg"

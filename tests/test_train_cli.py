@@ -123,7 +123,9 @@ def test_every_config_of_every_group_composes_and_instantiates(group, tmp_path):
             dm = train.build_datamodule(small)
             module = train.build_module(small, dm)
             assert module.kind == small.module and module.n_parameters() > 0
-            assert train.info(small)["placement"] == (small.placement if small.module == "hybrid" else None)
+            if small.module == "hybrid":  # the built module has the configured placement, not the default
+                assert (module.placement, module.latent_states) == (small.placement, int(small.latent_states))
+            assert train.run_info(small)["placement"] == (small.placement if small.module == "hybrid" else None)
     if group == "experiment":
         for option in _options(group):  # every training experiment's data and split are consistent
             cfg = _compose([f"experiment={option}"])

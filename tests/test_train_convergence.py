@@ -73,7 +73,7 @@ def test_the_nominal_starts_from_an_identified_fit_by_default(loops, tmp_path):
     # seed 000's recipe re-initialises the parameters near zero: no identification there
     noise_start = _start_rmse(_compose(loops, tmp_path, "module=physics", "loss=seed000"))
     assert noise_start > 10 * NOISE
-    assert train.info(_compose(loops, tmp_path, "module=physics", "loss=seed000"))["nominal_init"] == "init_noise"
+    assert train.run_info(_compose(loops, tmp_path, "module=physics", "loss=seed000"))["nominal_init"] == "init_noise"
     with pytest.raises(ValueError, match="unknown nominal_init.method 'fit'"):
         _start_rmse(_compose(loops, tmp_path, "nominal_init.method=fit"))
     with pytest.raises(ValueError, match="nominal_init.settings.generation"):

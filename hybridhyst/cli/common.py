@@ -22,7 +22,13 @@ from collections.abc import Callable
 
 from omegaconf import DictConfig, OmegaConf
 
-from ..files import atomic_write, jsonable, prepare_run_dir, write_json  # noqa: F401 (the apps' run-directory I/O)
+from ..files import (  # noqa: F401 (the apps' run-directory I/O)
+    atomic_write,
+    jsonable,
+    prepare_run_dir,
+    run_dir_path,
+    write_json,
+)
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
 from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
     check_kwargs,
@@ -56,9 +62,6 @@ def check_app(cfg: DictConfig, app: str) -> None:
     if cfg.get("app", app) != app:
         raise ValueError(f"this configuration (experiment {cfg.get('experiment_name') or ''!s}) is for "
                          f"hybridhyst-{cfg.app}, not hybridhyst-{app}")
-
-
-# -- records and split: one convention for every app -----------------------------------------------------------
 
 
 # -- errors ---------------------------------------------------------------------------------------------------

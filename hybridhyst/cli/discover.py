@@ -15,7 +15,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-from ..data.decimate import decimation_factors
+from ..data.decimate import decimate_all, decimation_factors
 from ..data.records import RecordSet
 from ..data.splits import Split
 from ..discover import discover
@@ -45,7 +45,7 @@ def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
     samples_per_cycle, downsample, frequency = th.samples_per_cycle, th.downsample, th.frequency_condition
     records = load_records(cfg, split["select"])
     factors = decimation_factors(records, samples_per_cycle, downsample, frequency)
-    records = RecordSet([r.slice(step=factors[r.name]) if factors[r.name] > 1 else r for r in records], records.name)
+    records = RecordSet(decimate_all(records, factors, "discovery"), records.name)
     return records, records.split(held_out=split["held_out"], val=split["val"])
 
 

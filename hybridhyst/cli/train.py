@@ -40,16 +40,26 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..data.datamodule import RecordDataModule
 from ..training import predict_split, predictions_frame, split_metrics
-from ..training.build import build_datamodule, build_trainer, nominal_start
+from ..training.build import build_datamodule, build_trainer, nominal_start, run_info
 from ..training.build import build_module as _build_module
-from ..training.build import run_info as info
 from ..training.config import check_kwargs, to_plain
-from .common import CONF_DIR, atomic_write, check_app, guarded, hydra_entry, prepare_run_dir, torch_settings, write_json
+from .common import (
+    CONF_DIR,
+    atomic_write,
+    check_app,
+    guarded,
+    hydra_entry,
+    jsonable,
+    prepare_run_dir,
+    run_dir_path,
+    torch_settings,
+    write_json,
+)
 
-# build_datamodule, build_trainer, nominal_start and info (run_info) come from hybridhyst.training.build,
+# build_datamodule, build_trainer, nominal_start and run_info come from hybridhyst.training.build,
 # re-exported for the app's callers and tests; build_module here adds the nominal's identification
 __all__ = ["StartModel", "build_datamodule", "build_module", "build_trainer", "finished_run", "identify_nominal",
-           "info", "main", "nominal_start", "run", "summary"]
+           "main", "nominal_start", "run", "run_info", "summary"]
 
 SPLITS = ("train", "val", "test")
 
@@ -99,10 +109,6 @@ def _monitor(dm: RecordDataModule) -> str:
     return "val" if len(dm.records("val")) else "train"
 
 
-def _plain_json(value):
-    return json.loads(json.dumps(value))
-
-
 class StartModel(Callback):
     """The weights a run starts from, their validation RMSE and the starting nominal's errors, saved in every
     checkpoint (Lightning's callback state), so that a run resumed with ``ckpt_path`` keeps its original start:
@@ -128,7 +134,7 @@ class StartModel(Callback):
         else:
             rmse = split_metrics(predict_split(module, dm, monitor))["rmse"]
         self.start = {"split": monitor, "rmse": float(rmse)}
-        self.nominal = _plain_json(nominal)
+        self.nominal = jsonable(nominal)
 
     def state_dict(self) -> dict:
         if self.weights is None:
@@ -147,14 +153,14 @@ def run(cfg: DictConfig) -> dict:
     ``checkpoints/`` there are removed first (unless resuming), so that neither is mistaken for this run's."""
     check_app(cfg, "train")
     start = time.perf_counter()
-    if cfg.get("skip_finished") and not cfg.get("ckpt_path"):
-        done = finished_run(cfg)
+    if not cfg.get("ckpt_path"):
+        done = finished_run(cfg) if cfg.get("skip_finished") else None
         if done is not None:
-            print(f"{done['info']['name']}: finished earlier with this config, kept: {_output_dir(cfg)}", flush=True)
+            print(f"{done['info']['name']}: finished earlier with this config, kept: {run_dir_path(cfg)}", flush=True)
             return done
-        _clear(_output_dir(cfg))
+        _clear(run_dir_path(cfg))
     run_dir = prepare_run_dir(cfg)
-    meta = info(cfg)
+    meta = run_info(cfg)
     try:
         return _run(cfg, run_dir, meta, start)
     except Exception as e:
@@ -162,19 +168,10 @@ def run(cfg: DictConfig) -> dict:
         raise
 
 
-def _output_dir(cfg: DictConfig) -> Path:
-    """The run directory ``prepare_run_dir`` uses (Hydra's output dir, else ``cfg.run_dir``, else the cwd)."""
-    from hydra.core.hydra_config import HydraConfig
-
-    if HydraConfig.initialized():
-        return Path(HydraConfig.get().runtime.output_dir)
-    return Path(cfg.get("run_dir") or Path.cwd())
-
-
 def finished_run(cfg: DictConfig) -> dict | None:
     """The ``metrics.json`` of a finished run (``status: ok``) in ``cfg``'s run directory whose ``config.yaml``
     equals ``cfg`` (resolved, as plain containers: key order does not matter); None otherwise."""
-    run_dir = _output_dir(cfg)
+    run_dir = run_dir_path(cfg)
     try:
         metrics = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))
         earlier = OmegaConf.to_container(OmegaConf.load(run_dir / "config.yaml"), resolve=True)

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
-from .decimate import decimate_all, decimation_factors
+from .decimate import decimate, decimate_all, decimation_factors
 from .records import Record, RecordSet
 
 __all__ = ["Normaliser", "RecordDataModule", "condition_label", "prepare_record"]
@@ -235,7 +235,7 @@ class RecordDataModule(L.LightningDataModule):
         ``train_fraction`` < 1 only the kept windows (one record each, named ``<record>@<start>``), so that a
         model fitted to them (the identified start of a nominal) sees no more data than the network."""
         records = list(self.split.train)
-        thin = [r.slice(step=self.factors[r.name]) if self.factors[r.name] > 1 else r for r in records]
+        thin = [decimate(r, self.factors[r.name]) for r in records]
         if self.train_fraction >= 1.0:
             return thin
         if self.window is None:

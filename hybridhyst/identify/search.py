@@ -104,7 +104,7 @@ class _Scorer:
         self.best, self.best_u, self.history = math.inf, None, []
 
     def __call__(self, U: np.ndarray) -> np.ndarray:
-        U = np.clip(np.asarray(U, dtype=np.float64), 0.0, 1.0)
+        U = np.asarray(U, dtype=np.float64)  # the searches keep members in the box (reflection, scipy, cma)
         costs = safe_costs(self.objective, self.box.from_unit(torch.as_tensor(U))).numpy()
         self.evaluations, self.batches = self.evaluations + len(U), self.batches + 1
         self.non_finite += int(np.isinf(costs).sum())
@@ -184,7 +184,7 @@ def differential_evolution(objective: Objective, space, *, pop: int | None = Non
         res = scipy_de(batch, [(0.0, 1.0)] * box.dim, strategy=strategy, maxiter=int(generations), init=U,
                        mutation=F, recombination=CR, seed=rng, tol=0.0, atol=0.0, polish=False,
                        vectorized=True, updating="deferred", callback=stop)
-    return _finish(box, np.clip(res.population, 0, 1), np.asarray(res.population_energies), score.history,
+    return _finish(box, res.population, np.asarray(res.population_energies), score.history,
                    score.evaluations, score.batches - 1, score.non_finite)
 
 

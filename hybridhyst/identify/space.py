@@ -173,7 +173,8 @@ class SearchSpace(Box):
                     override = _trend_box(co, fn.condition, factor, condition_scales)
                 spec = specs[(key, pname)] if co.own else None
                 lo, hi = self._bounds(co.value, spec, factor, override, co.signed)
-                unit = render_unit(spec.unit, model.units) if spec is not None else ""
+                unit = "" if spec is None else (model.effects[key].param_unit(pname, model.units)
+                                                if key in model.effects else render_unit(spec.unit, model.units))
                 coords.append(Coordinate(name, key, pname, position, co.value, lo, hi, unit))
         if bounds:
             raise ValueError(f"bounds given for unknown coordinate(s) {sorted(bounds)}; "

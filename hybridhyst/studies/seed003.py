@@ -24,6 +24,8 @@ from ..data import RecordSet
 from ..progress import progress as progress_bar
 from . import resolve_options
 from .seed003_actuator import (
+    case_name,
+    case_pairs,
     id_summary,
     identification_table,
     identify_nominal,
@@ -55,11 +57,11 @@ def _settings(options: dict) -> dict:
     """The experiment's options, with ``reduced_options`` applied when ``reduced``; checked."""
     o = resolve_options(options, _REQUIRED, "seed003_hybrid_pinn_piezo")
     cases = [(float(a), float(f)) for a in o["amplitudes_v"] for f in o["frequencies_hz"]]
-    bad = [c for c in cases + _pairs(o["val_cases"]) + _pairs(o["test_cases"])
+    bad = [c for c in cases + case_pairs(o["val_cases"]) + case_pairs(o["test_cases"])
            if not (0 < c[0] <= 100 and 0.1 <= c[1] <= 50)]
     if bad:
         raise ValueError(f"sweep cases {bad} are outside seed 003's range (0-100 V, 0.1-50 Hz)")
-    if not set(_pairs(o["test_cases"])) or set(_pairs(o["test_cases"])) & set(_pairs(o["val_cases"])):
+    if not set(case_pairs(o["test_cases"])) or set(case_pairs(o["test_cases"])) & set(case_pairs(o["val_cases"])):
         raise ValueError("give at least one test case and keep validation and test cases apart")
     if not all(0 < float(f) <= 1 for f in o["fractions"]) or 1.0 not in [float(f) for f in o["fractions"]]:
         raise ValueError(f"fractions {o['fractions']} must lie in (0, 1] and include 1.0 (the full training set)")
@@ -70,16 +72,10 @@ def _settings(options: dict) -> dict:
     return o
 
 
-def _pairs(cases) -> list[tuple[float, float]]:
-    return [(float(a), float(f)) for a, f in cases]
-
 
 def _query(cases) -> list[dict]:
-    return [{"amplitude_v": [a], "frequency_hz": [f]} for a, f in _pairs(cases)]
+    return [{"amplitude_v": [a], "frequency_hz": [f]} for a, f in case_pairs(cases)]
 
-
-def _name(case) -> str:
-    return f"{case[0]:g}V_{case[1]:g}Hz"
 
 
 def hybrid_pinn_piezo(options: dict, out) -> dict:
@@ -90,8 +86,8 @@ def hybrid_pinn_piezo(options: dict, out) -> dict:
     root.mkdir(parents=True, exist_ok=True)
     truth = true_actuator(o["rate_gain"], o["xi_gain"], o["rate_corner_hz"], o["sigma_s_per_um"])
     train_cases = [c for c in ((float(a), float(f)) for a in o["amplitudes_v"] for f in o["frequencies_hz"])
-                   if c not in set(_pairs(o["test_cases"]) + _pairs(o["val_cases"]))]
-    data = sweep_records(truth, train_cases + _pairs(o["val_cases"]) + _pairs(o["test_cases"]), seed=seed,
+                   if c not in set(case_pairs(o["test_cases"]) + case_pairs(o["val_cases"]))]
+    data = sweep_records(truth, train_cases + case_pairs(o["val_cases"]) + case_pairs(o["test_cases"]), seed=seed,
                          **_sweep_options(o))
     check, fitted, summary = _identification(o, data, train_cases, seed, progress)
     out.table("identification", identification_table(check, fitted, o),
@@ -116,7 +112,7 @@ def hybrid_pinn_piezo(options: dict, out) -> dict:
                "Held-out cases (cf. seed 003 Figs. 17-20): loops (top) and tracking error x̂ − x (bottom)")
     out.figure("data_efficiency", efficiency_figure(tables["efficiency"]),
                "Held-out RMSE against the fraction of training windows (cf. seed 003 Fig. 16)")
-    summary.update(run_summary(lam, tables, runs))
+    summary.update(run_summary(tables, runs))
     return summary
 
 
@@ -134,9 +130,9 @@ def _identification(o: dict, data: RecordSet, train_cases, seed: int, progress: 
     plain = sweep_records(true_actuator(0.0, 0.0, o["rate_corner_hz"], o["sigma_s_per_um"]), cases,
                           seed=seed + 1, **_sweep_options(o))
     check = identify_nominal(plain, o["sigma_s_per_um"], ido, progress)
-    fitted = identify_nominal(RecordSet([data[_name(c)] for c in cases]), o["sigma_s_per_um"], ido, progress)
+    fitted = identify_nominal(RecordSet([data[case_name(c)] for c in cases]), o["sigma_s_per_um"], ido, progress)
     summary = {"identification": {"check": id_summary(check), "fitted": id_summary(fitted),
-                                  "records": [_name(c) for c in cases]}}
+                                  "records": [case_name(c) for c in cases]}}
     return check, fitted, summary
 
 

@@ -58,6 +58,16 @@ def sample_times(frequency_hz: float, cycles: int, samples_per_cycle: int, max_i
     return np.arange(int(cycles) * n) / (n * frequency_hz)
 
 
+def case_pairs(cases) -> list[tuple[float, float]]:
+    """(amplitude V, frequency Hz) cases as float pairs."""
+    return [(float(a), float(f)) for a, f in cases]
+
+
+def case_name(case) -> str:
+    """The record name of a sweep case: ``"100V_20Hz"`` (the runs of the study are matched by it)."""
+    return f"{case[0]:g}V_{case[1]:g}Hz"
+
+
 def sweep_records(model, cases, *, cycles: int, samples_per_cycle: int, max_interval_s: float, noise_um: float,
                   substeps: int, seed: int) -> RecordSet:
     """Unipolar sine sweeps u = U (1 − cos 2π f t) / 2 [V] (0 … U, from rest) through ``model``; response
@@ -70,7 +80,7 @@ def sweep_records(model, cases, *, cycles: int, samples_per_cycle: int, max_inte
     for amp, f in cases:
         t = sample_times(f, cycles, samples_per_cycle, max_interval_s)
         u = 0.5 * amp * (1 - np.cos(2 * np.pi * f * t))
-        shells.append(Record(f"{amp:g}V_{f:g}Hz", t, u, np.zeros_like(u), units={"x": "V", "y": "um"},
+        shells.append(Record(case_name((amp, f)), t, u, np.zeros_like(u), units={"x": "V", "y": "um"},
                              conditions={"amplitude_v": float(amp), "frequency_hz": float(f)}))
     with torch.no_grad():
         ys = simulate(model, shells, substeps=substeps, backend="fast")

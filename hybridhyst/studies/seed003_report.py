@@ -11,6 +11,7 @@ import torch
 
 from ..analysis import mae, rmse
 from ..nets import build_net
+from .seed003_actuator import case_name, case_pairs
 
 __all__ = ["MODELS", "architecture_table", "efficiency_figure", "efficiency_table", "holdout_figure", "holdout_table",
            "lambda_table", "run_summary"]
@@ -28,12 +29,6 @@ MODELS = {"physics": "physics (DE nominal)", "mlp": "MLP", "lstm": "LSTM", "std_
           "hybrid": "Hybrid-PINN", "hybrid_dynamics": "Hybrid in the loop"}
 
 
-def _name(case) -> str:
-    return f"{case[0]:g}V_{case[1]:g}Hz"
-
-
-def _pairs(cases) -> list[tuple[float, float]]:
-    return [(float(a), float(f)) for a, f in cases]
 
 
 def _label(a: float, f: float) -> str:
@@ -113,13 +108,13 @@ def holdout_table(runs, o: dict, lam: float) -> tuple[pd.DataFrame, dict]:
     hold = {"hybrid": runs.get("hybrid", "4x128", lam, s)}
     kinds = ("mlp", "lstm", "std_pinn") + (("hybrid_dynamics",) if o.get("in_the_loop", True) else ())
     hold.update({k: runs.get(k, None, None, s) for k in kinds})
-    cases = _pairs(o["test_cases"])
+    cases = case_pairs(o["test_cases"])
     rows = []
     for kind in (k for k in MODELS if k in hold or k == "physics"):
         r, key = (hold["hybrid"], "y_nominal") if kind == "physics" else (hold[kind], "y_pred")
         per = _case_rmse(r, key)
         rows.append({"model": MODELS[kind], "source": "this study",
-                     **{_label(*c): per[_name(c)] for c in cases}, "pooled": _pooled(r, key)[0]})
+                     **{_label(*c): per[case_name(c)] for c in cases}, "pooled": _pooled(r, key)[0]})
     for kind in PAPER_TABLE4:
         paper = dict(zip(PAPER_CASES, PAPER_TABLE4[kind]))
         rows.append({"model": MODELS[kind], "source": "seed 003 Table 4",
@@ -140,12 +135,12 @@ def efficiency_table(runs, o: dict, lam: float) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run_summary(lam, tables, runs) -> dict:
+def run_summary(tables, runs) -> dict:
     """The headline numbers of the training tables for summary.json."""
     arch_table, lam_table, eff_table = tables["architecture"], tables["lambda"], tables["efficiency"]
     ours = tables["holdout"][tables["holdout"]["source"] == "this study"].set_index("model")
     physics, hybrid = float(ours.loc[MODELS["physics"], "pooled"]), float(ours.loc[MODELS["hybrid"], "pooled"])
-    return {"adopted_lambda_phys": lam,
+    return {"adopted_lambda_phys": tables["lam"],
             "holdout_pooled_rmse_um": {m: float(v) for m, v in ours["pooled"].items()},
             "holdout_rmse_um": {m: {c: float(v) for c, v in row.items() if c not in ("source", "pooled")}
                                 for m, row in ours.iterrows()},
@@ -165,7 +160,7 @@ def holdout_figure(hold: dict, o: dict):
     """Held-out cases (cf. seed 003 Figs. 17-20): loops (top) and tracking error (bottom)."""
     import matplotlib.pyplot as plt
 
-    cases = _pairs(o["test_cases"])
+    cases = case_pairs(o["test_cases"])
     fig, axes = plt.subplots(2, len(cases), figsize=(2.6 * len(cases), 4.6), squeeze=False)
     styles = {"physics": ("tab:red", "--"), "hybrid": ("tab:blue", "-"), "hybrid_dynamics": ("tab:purple", "-"),
               "lstm": ("tab:green", "-"), "mlp": ("tab:orange", "-")}
@@ -174,7 +169,7 @@ def holdout_figure(hold: dict, o: dict):
             if kind not in hold and kind != "physics":
                 continue
             r, key = (hold["hybrid"], "y_nominal") if kind == "physics" else (hold[kind], "y_pred")
-            p = next(p for p in r["test"] if p["record"] == _name(case))
+            p = next(p for p in r["test"] if p["record"] == case_name(case))
             if kind == "physics":
                 axes[0, j].plot(p["x"], p["y"], color="0.6", lw=2, label="measured")
             if kind in ("physics", "hybrid", "hybrid_dynamics"):

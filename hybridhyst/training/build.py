@@ -75,8 +75,8 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     elif kind == "hybrid":
         module = MODULES[kind](nominal, residual=net.kind, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), features=list(cfg.features),
-                               placement=str(cfg.get("placement", "output")),
-                               latent_states=int(cfg.get("latent_states", 0)), **sim, **common)
+                               placement=str(cfg.placement),
+                               latent_states=int(cfg.latent_states), **sim, **common)
     elif kind == "std_pinn":
         module = MODULES[kind](nominal, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), **sim, **common)
@@ -145,7 +145,7 @@ def run_info(cfg: DictConfig) -> dict:
     uses_net = kind != "physics"
     name = DISPLAY.get(kind, kind)
     if kind == "hybrid":  # hybrid-mlp, hybrid-lstm (the output branch) or hybrid-dynamics (inside the equations)
-        name = "hybrid-dynamics" if cfg.get("placement") == "dynamics" else f"hybrid-{cfg.residual.kind}"
+        name = "hybrid-dynamics" if cfg.placement == "dynamics" else f"hybrid-{cfg.residual.kind}"
     model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
         if kind in NOMINAL_MODULES else None
     return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,
@@ -154,6 +154,6 @@ def run_info(cfg: DictConfig) -> dict:
             "seed": int(cfg.seed), "train_fraction": float(cfg.datamodule.train_fraction),
             "conditions": ",".join(cfg.datamodule.conditions),
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
-            "placement": str(cfg.get("placement", "output")) if kind == "hybrid" else None,
+            "placement": str(cfg.placement) if kind == "hybrid" else None,
             "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
             "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}

@@ -29,11 +29,14 @@ def predict_split(module, dm, split: str, nominal: bool = False) -> list[dict]:
             for i, (rec, label) in enumerate(zip(dm.records(split), dm.labels(split))):
                 batch = {k: v[None] for k, v in dm.whole(split)[i].items()}
                 batch = {k: v.to(module.device) for k, v in batch.items()}
-                res = {"y": module.simulate_nominal(batch)} if nominal else module(batch)
-                y_nom = res["y"] if nominal else res.get("nominal")
+                if nominal:
+                    y = y_nom = module.simulate_nominal(batch)
+                else:
+                    res = module(batch)
+                    y, y_nom = res["y"], res.get("nominal")
                 out.append({"record": rec.name, "condition": label, "split": split,
                             "t": batch["t"][0].cpu().numpy(), "x": batch["u"][0].cpu().numpy(),
-                            "y": batch["y"][0].cpu().numpy(), "y_pred": res["y"][0].cpu().numpy(),
+                            "y": batch["y"][0].cpu().numpy(), "y_pred": y[0].cpu().numpy(),
                             "y_nominal": None if y_nom is None else y_nom[0].cpu().numpy(),
                             "warmup": rec.warmup})
     finally:

@@ -154,6 +154,12 @@ class Effect(nn.Module):
                     raise ValueError(f"effect {self.name!r}: a fixed parameter {pname!r} must be a number")
                 self.params[pname] = Fixed(value)
             else:
+                if spec.constraint == "bounded" and isinstance(value, (int, float)):
+                    lo, hi = spec.bounds
+                    if not lo < value < hi:  # a sigmoid holds neither bound: only a fixed value may sit there
+                        raise ValueError(f"effect {self.name!r}: a trained {pname} must lie strictly inside "
+                                         f"({lo:g}, {hi:g}), got {value}; to hold it at or beyond a bound, fix it: "
+                                         f"fixed=[{pname!r}]")
                 self.params[pname] = build_function(value, spec)
 
     # -- parameters -------------------------------------------------------------------------------
@@ -161,12 +167,14 @@ class Effect(nn.Module):
         """Parameter values for a batch: name -> ``(batch,)`` tensor."""
         return {pname: fn(conditions, batch) for pname, fn in self.params.items()}
 
+    def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
+        """The unit of parameter ``pname`` with the model's ``units`` (``{"F": "Nm", "x": "deg"}``)."""
+        return render_unit(self.param_specs[pname].unit, units)
+
     def describe(self, units: dict[str, str] | None = None) -> dict[str, dict[str, str]]:
         """Parameter name -> {value (or function), unit} for reports."""
-        return {
-            pname: {"value": fn.describe(), "unit": render_unit(self.param_specs[pname].unit, units)}
-            for pname, fn in self.params.items()
-        }
+        return {pname: {"value": fn.describe(), "unit": self.param_unit(pname, units)}
+                for pname, fn in self.params.items()}
 
     # -- contributions (defaults: contributes nothing) --------------------------------------------
     def initial_state(self, p: dict[str, torch.Tensor], batch: int) -> torch.Tensor:

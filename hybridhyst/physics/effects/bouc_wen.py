@@ -57,11 +57,6 @@ class BoucWenHysteresis(Effect):
     def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):
         if driven_by not in ("motion", "input"):
             raise ValueError(f"bouc_wen: driven_by must be 'motion' or 'input', got {driven_by!r}")
-        alpha = values.get("alpha")
-        if "alpha" not in fixed and isinstance(alpha, (int, float)) and not 0.0 < alpha < 1.0:
-            raise ValueError(f"bouc_wen: a trained alpha must lie strictly inside (0, 1), got {alpha}; for a purely "
-                             "hysteretic (alpha = 0) or purely elastic (alpha = 1) element fix it: "
-                             "fixed=['alpha']")
         fix_kappa = "kappa" in fixed
         if fix_kappa and kappa is None:
             raise ValueError("bouc_wen: fixing 'kappa' needs a kappa value")

@@ -97,16 +97,11 @@ class NeuralEffect(Effect):
         return {f"@{c}": (conditions[c] - self.condition_mean[j]) / self.condition_sd[j]
                 for j, c in enumerate(self.condition_names)}
 
-    def describe(self, units=None):
-        return {}
-
     def _outputs(self, p, kin: Kinematics, state):
         """Network outputs ``(batch, 1 + latent)`` at one instant (cached for the rate-then-force pair)."""
         last = self._last
         if last is not None and last[0] is kin and last[1] is state:
             return last[2]
-        if not isinstance(kin.x, torch.Tensor):
-            raise ValueError("the compiled fast path does not cover the neural effect; use the reference path")
         channels = {"x": kin.x, "v": kin.v, "u": kin.u, "du": kin.du}
         cols = [channels[k] / self.input_scale[j] for j, k in enumerate(self.inputs)]
         cols += [state[:, j] for j in range(self.state_dim)]

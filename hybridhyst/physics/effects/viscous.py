@@ -34,10 +34,10 @@ class Viscous(Effect):
         self.scaled_unit = scaled_unit
         self.register_buffer("velocity_scale", torch.tensor(float(velocity_scale), dtype=torch.get_default_dtype()))
 
-    def describe(self, units: dict[str, str] | None = None) -> dict[str, dict[str, str]]:
+    def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
         if self.scaled_unit and units:
             units = {**units, "x": self.scaled_unit}
-        return super().describe(units)
+        return super().param_unit(pname, units)
 
     def force(self, p, kin: Kinematics, state):
         return p["c"] * float(self.velocity_scale) * kin.v
