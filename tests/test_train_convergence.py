@@ -123,3 +123,23 @@ def test_a_resumed_run_equals_an_uninterrupted_one(loops, tmp_path):
         assert resumed["nominal"][key] == straight["nominal"][key]
     assert resumed["nominal"]["identify"]["x"] == straight["nominal"]["identify"]["x"]
     assert straight["val"]["rmse"] != straight["nominal"]["val"]["rmse"]  # training moved the weights
+
+
+def test_the_cosine_schedule_decays_every_rate_to_its_final_share(loops, tmp_path):
+    from hybridhyst.training.base import cosine_factor
+
+    assert cosine_factor(0, 10, 0.1) == 1.0 and cosine_factor(10, 10, 0.1) == pytest.approx(0.1)
+    assert cosine_factor(5, 10, 0.1) == pytest.approx(0.55) and cosine_factor(12, 10, 0.1) == pytest.approx(0.1)
+    cfg = _compose(loops, tmp_path, "module=hybrid", "trainer.max_epochs=3", "trainer.lr_schedule=cosine",
+                   "trainer.lr_final_ratio=0.1")
+    train.run(cfg)
+    ckpt = torch.load(tmp_path / "checkpoints" / "last.ckpt", map_location="cpu", weights_only=False)
+    (state,) = ckpt["lr_schedulers"]
+    groups = ckpt["optimizer_states"][0]["param_groups"]
+    assert len(groups) > 1  # the network and each nominal parameter: all follow the one schedule
+    factor = cosine_factor(state["last_epoch"], 3, 0.1)
+    assert state["last_epoch"] >= 2 and factor < 0.5
+    assert [g["lr"] for g in groups] == pytest.approx([factor * g["initial_lr"] for g in groups], rel=1e-12)
+    with pytest.raises(ValueError, match="unknown lr_schedule 'linear'"):
+        train.run(_compose(loops, tmp_path / "x", "module=hybrid", "trainer.lr_schedule=linear",
+                           "nominal_init.method=none"))

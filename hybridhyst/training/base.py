@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from functools import partial
 
 import lightning as L
 import torch
@@ -16,9 +17,18 @@ from ..physics.models import DrivenOscillator
 from ..simulate import simulate
 from .losses import data_loss
 
-__all__ = ["SequenceModule", "NominalMixin", "InputSampleOf", "load_nominal_state", "neural_scales"]
+__all__ = ["LR_SCHEDULES", "SequenceModule", "NominalMixin", "InputSampleOf", "cosine_factor", "load_nominal_state",
+           "neural_scales"]
 
 _FEATURES = ("t", "u", "du", "ddu")
+LR_SCHEDULES = ("constant", "cosine")
+
+
+def cosine_factor(epoch: int, epochs: int, final: float) -> float:
+    """The cosine schedule's multiplier of the starting step after ``epoch`` epochs: 1 at 0, ``final`` from
+    ``epochs`` on."""
+    e = min(max(int(epoch), 0), int(epochs))
+    return float(final) + (1.0 - float(final)) * 0.5 * (1.0 + math.cos(math.pi * e / int(epochs)))
 
 
 class SequenceModule(L.LightningModule):
@@ -31,6 +41,8 @@ class SequenceModule(L.LightningModule):
     features : input channels of networks among "t", "u", "du", "ddu" (conditions are appended).
     lr, weight_decay : Adam settings of the networks; nominal_lr : relative Adam step of each nominal
         parameter (times max(|raw value|, 1); default ``lr``).
+    lr_schedule : "constant", or "cosine": every group's step decays by a half cosine over the trainer's
+        ``max_epochs`` to ``lr_final_ratio`` × its start (stepped once per epoch; resumed runs continue it).
     loss : "mse" or "mae" data misfit; lambda_phys : physics weight.
     normalise_loss : divide the data misfit by the training response sd (default); False keeps it in the
         response's units (seed 000's MAE in Nm).
@@ -42,13 +54,18 @@ class SequenceModule(L.LightningModule):
     def __init__(self, normaliser: dict, condition_names: Sequence[str] = (),
                  features: Sequence[str] = ("t", "u", "du"), lr: float = 1e-3, weight_decay: float = 0.0,
                  loss: str = "mse", lambda_phys: float = 0.0, units: dict | None = None,
-                 nominal_lr: float | None = None, normalise_loss: bool = True):
+                 nominal_lr: float | None = None, normalise_loss: bool = True, lr_schedule: str = "constant",
+                 lr_final_ratio: float = 0.01):
         super().__init__()
         bad = [f for f in features if f not in _FEATURES]
         if bad:
             raise ValueError(f"unknown network feature(s) {bad}; choose from {_FEATURES}")
         if loss not in ("mse", "mae"):
             raise ValueError(f"unknown data loss {loss!r}; choose 'mse' or 'mae'")
+        if lr_schedule not in LR_SCHEDULES:
+            raise ValueError(f"unknown lr_schedule {lr_schedule!r}; choose from {LR_SCHEDULES}")
+        if not 0.0 < float(lr_final_ratio) <= 1.0:
+            raise ValueError(f"lr_final_ratio must be in (0, 1], got {lr_final_ratio}")
         if float(lambda_phys) < 0:
             raise ValueError(f"lambda_phys must be >= 0, got {lambda_phys}")
         self.norm = Normaliser.from_dict(normaliser)
@@ -56,6 +73,7 @@ class SequenceModule(L.LightningModule):
         self.feature_names = list(features)
         self.lr, self.weight_decay, self.loss_kind = float(lr), float(weight_decay), loss
         self.nominal_lr = float(lr if nominal_lr is None else nominal_lr)
+        self.lr_schedule, self.lr_final_ratio = lr_schedule, float(lr_final_ratio)
         self.normalise_loss = bool(normalise_loss)
         self.lambda_phys = float(lambda_phys)
         self.units = dict(units or {})
@@ -149,7 +167,13 @@ class SequenceModule(L.LightningModule):
             groups += [{"params": [p], "lr": self.nominal_lr * max(float(p.detach().abs().max()), 1.0),
                         "weight_decay": 0.0} for p in nominal.parameters() if p.requires_grad]
         groups = [g for g in groups if g["params"]]
-        return torch.optim.Adam(groups, lr=self.lr)
+        optimizer = torch.optim.Adam(groups, lr=self.lr)
+        if self.lr_schedule == "constant":
+            return optimizer
+        epochs = max(int(self.trainer.max_epochs or 1), 1) if self._trainer is not None else 1
+        scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, partial(cosine_factor, epochs=epochs,
+                                                                          final=self.lr_final_ratio))
+        return {"optimizer": optimizer, "lr_scheduler": {"scheduler": scheduler, "interval": "epoch"}}
 
     def n_parameters(self) -> int:
         return count_parameters(self)
