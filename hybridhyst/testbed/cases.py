@@ -51,7 +51,7 @@ from .laws import (
     vpptd_records,
 )
 
-__all__ = ["CASES", "CASE_BY_NAME", "CATEGORIES", "FAST_CASES", "Case", "ALIASES"]
+__all__ = ["CASES", "CASE_BY_NAME", "CATEGORIES", "FAST_CASES", "Case", "ALIASES", "maxwell_records"]
 
 CATEGORIES = ("single", "pair", "condition", "clean", "out_of_library")
 COULOMB = frozenset({"coulomb", "asymmetric_coulomb"})
@@ -179,6 +179,13 @@ def _osc_records(name, tests, law, *, spc, cycles, noise, phi=None, seed=0):
                     law, noise, phi, seed, {"x": "kip", "y": "in"})
 
 
+def maxwell_records(noise: float = 0.03, phi: float | None = 0.5, seed: int = 52):
+    """The ``maxwell`` case's records (1.5x + 0.1v + a Maxwell element k_m 2, c_m 0.2, at FREQS); other noise
+    levels and seeds for ``scripts/testbed_maxwell_variance.py``."""
+    return _sine_records("maxwell", FREQS, maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2, noise=noise,
+                         phi=phi, seed=seed, refine=10)
+
+
 def _vpptd_nominal():
     from ..physics.compositions import vpptd_algebraic
 
@@ -276,8 +283,7 @@ def _build_cases() -> list[Case]:
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "2x + 0.2v + (0.4 + 0.04 s) arctan sign, s = travel; nominal spring + viscous + Coulomb", "100"))
     add(_case("maxwell", "single", [{"maxwell"}], [("maxwell.k_m", 2.0, 0.15), ("maxwell.tau", 0.1, 0.15)], 0.03,
-              lambda: _sine_records("maxwell", FREQS, maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2,
-                                    noise=0.03, phi=0.5, seed=52, refine=10),
+              maxwell_records,
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), FREQ_SPLIT,
               "1.5x + 0.1v + Maxwell (k_m 2 in series with c_m 0.2, τ 0.1 s; exact exponential integrator); "
               "nominal spring + viscous", "100", "AR(1) 0.5"))
