@@ -1,7 +1,7 @@
 """Import direction: the layers contract in pyproject.toml ([tool.importlinter]), checked by import-linter.
 
 ``cli`` → ``studies | testbed`` → ``discover`` → ``training | identify`` → ``synth`` → ``simulate`` →
-``physics`` → ``data | nets | analysis | report`` → ``files | settings | progress``: nothing imports upward
+``physics`` → ``data | nets | analysis | report`` → ``files | settings | progress | units``: nothing imports upward
 (also not inside a function), and layers joined by "|" do not import each other.
 """
 

@@ -263,6 +263,19 @@ def test_loop_figure_labels_lines_titles_and_panels():
         draw_loops(records, {"model": model[:1]})
 
 
+def test_axis_labels_come_from_the_one_unit_table():
+    from hybridhyst.data import KNOWN_UNITS, check_units
+    from hybridhyst.report.figures import axis_label
+    from hybridhyst.units import UNIT_QUANTITY
+
+    assert KNOWN_UNITS == set(UNIT_QUANTITY)  # one table: a unit the reader accepts is one the labels know
+    assert axis_label("u", "V") == "voltage u [V]" and axis_label("x", "um") == "displacement x [um]"
+    assert axis_label("y", "%") == "response y [%]"  # a unit without one quantity: the channel's role
+    check_units({"y": "kip"}, "test")
+    with pytest.raises(ValueError, match="did you mean 'kip'"):
+        check_units({"y": "Kip"}, "test")
+
+
 def test_write_loops_is_atomic(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 

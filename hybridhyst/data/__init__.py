@@ -1,5 +1,7 @@
 """Data: validated records, readers for csv/parquet/npz/mat, condition splits and bundled datasets."""
 
+from ..units import KNOWN_UNITS as KNOWN_UNITS
+from ..units import check_units as check_units
 from .builtin import BUILTINS as BUILTINS
 from .builtin import load_builtin as load_builtin
 from .readers import read as read
@@ -9,8 +11,6 @@ from .readers import read_table as read_table
 from .records import Record as Record
 from .records import RecordSet as RecordSet
 from .splits import Split as Split
-from .units import KNOWN_UNITS as KNOWN_UNITS
-from .units import check_units as check_units
 
 __all__ = [
     "BUILTINS",

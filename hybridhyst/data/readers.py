@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..units import check_units
 from .arrays import frame_from_arrays, load_mat, load_npz
 from .records import Record, RecordSet, _rows, validate_channels
-from .units import check_units
 
 __all__ = ["read", "read_mat", "read_npz", "read_table"]
 

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..files import atomic_write
+from ..units import UNIT_QUANTITY
 from .tables import configuration_labels
 
 __all__ = ["Loop", "axis_label", "data_efficiency_figure", "draw_loops", "error_per_condition_figure", "lambda_figure",
@@ -95,21 +96,6 @@ def _legend_below(fig, handles: list, labels: list[str]) -> None:
 # -- the hysteresis-loop figure: every loop plot of the package is drawn here -----------------------------
 
 # physical quantity of a channel, named from its unit (KNOWN_UNITS of hybridhyst.data.units)
-_QUANTITY = {
-    **dict.fromkeys(("m", "cm", "mm", "um", "nm", "in", "ft"), "displacement"),
-    **dict.fromkeys(("deg", "rad", "rev"), "angle"),
-    **dict.fromkeys(("N", "kN", "MN", "kip", "lb", "lbf"), "force"),
-    **dict.fromkeys(("Nm", "N*m", "kNm", "kN*m", "Nmm", "N*mm", "lb*in", "kip*in"), "torque"),
-    **dict.fromkeys(("m/s", "mm/s", "um/s", "in/s", "ft/s"), "velocity"),
-    **dict.fromkeys(("deg/s", "rad/s", "rpm"), "angular velocity"),
-    **dict.fromkeys(("m/s^2", "mm/s^2", "in/s^2", "g"), "acceleration"),
-    **dict.fromkeys(("deg/s^2", "rad/s^2"), "angular acceleration"),
-    **dict.fromkeys(("V", "mV", "kV"), "voltage"),
-    **dict.fromkeys(("A", "mA"), "current"),
-    **dict.fromkeys(("T", "mT"), "flux density"),
-    **dict.fromkeys(("Pa", "kPa", "MPa", "GPa", "bar", "mbar", "psi", "ksi"), "pressure"),
-    **dict.fromkeys(("s", "ms", "us", "min", "h"), "time"),
-}
 _ROLE = {"x": "excitation", "y": "response", "t": "time"}
 _PALETTE = ("C3", "C0", "C2", "C1", "C4", "C5", "C6", "C8", "C9")
 
@@ -134,7 +120,7 @@ def axis_label(channel: str, unit: str | None) -> str:
     """Axis label of a record channel: the quantity its unit measures, the channel and the unit,
     e.g. ``axis_label("x", "deg") == "angle x [deg]"``, ``axis_label("y", "kip") == "force y [kip]"``;
     without a known quantity the channel's role (``"response y [1]"``), without a unit no brackets."""
-    quantity = _QUANTITY.get(unit or "", _ROLE.get(channel, "channel"))
+    quantity = UNIT_QUANTITY.get(unit or "") or _ROLE.get(channel, "channel")
     return f"{quantity} {channel} [{unit}]" if unit else f"{quantity} {channel}"
 
 

@@ -1,30 +1,34 @@
-"""Known unit strings and their validation (a misspelt unit is an error that names the closest one)."""
+"""Known unit strings, the quantity each measures, and their validation (a misspelt unit is an error that names
+the closest one). Below every layer: data reads with it, reports label axes with it."""
 
 from __future__ import annotations
 
 import difflib
 
-__all__ = ["KNOWN_UNITS", "check_units"]
+__all__ = ["KNOWN_UNITS", "UNIT_QUANTITY", "check_units"]
 
-KNOWN_UNITS: frozenset[str] = frozenset(
-    {
-        # time and frequency
-        "s", "ms", "us", "min", "h", "Hz", "kHz",
-        # length and angle
-        "m", "cm", "mm", "um", "nm", "in", "ft", "deg", "rad", "rev",
-        # force and torque
-        "N", "kN", "MN", "kip", "lb", "lbf", "Nm", "N*m", "kNm", "kN*m", "Nmm", "N*mm", "lb*in", "kip*in",
-        # velocity and acceleration
-        "m/s", "mm/s", "um/s", "in/s", "ft/s", "deg/s", "rad/s", "rpm", "m/s^2", "mm/s^2", "in/s^2",
-        "deg/s^2", "rad/s^2", "g",
-        # electrical and magnetic
-        "V", "mV", "kV", "A", "mA", "Ohm", "W", "T", "mT",
-        # pressure and stress
-        "Pa", "kPa", "MPa", "GPa", "bar", "mbar", "psi", "ksi",
-        # other
-        "K", "degC", "J", "kJ", "%", "1", "-",
-    }
-)
+# every known unit and the quantity it measures (axis labels say "force y [kip]"); None: no single quantity
+UNIT_QUANTITY: dict[str, str | None] = {
+    **dict.fromkeys(("s", "ms", "us", "min", "h"), "time"),
+    **dict.fromkeys(("Hz", "kHz"), "frequency"),
+    **dict.fromkeys(("m", "cm", "mm", "um", "nm", "in", "ft"), "displacement"),
+    **dict.fromkeys(("deg", "rad", "rev"), "angle"),
+    **dict.fromkeys(("N", "kN", "MN", "kip", "lb", "lbf"), "force"),
+    **dict.fromkeys(("Nm", "N*m", "kNm", "kN*m", "Nmm", "N*mm", "lb*in", "kip*in"), "torque"),
+    **dict.fromkeys(("m/s", "mm/s", "um/s", "in/s", "ft/s"), "velocity"),
+    **dict.fromkeys(("deg/s", "rad/s", "rpm"), "angular velocity"),
+    **dict.fromkeys(("m/s^2", "mm/s^2", "in/s^2", "g"), "acceleration"),
+    **dict.fromkeys(("deg/s^2", "rad/s^2"), "angular acceleration"),
+    **dict.fromkeys(("V", "mV", "kV"), "voltage"),
+    **dict.fromkeys(("A", "mA"), "current"),
+    "Ohm": "resistance", "W": "power",
+    **dict.fromkeys(("T", "mT"), "flux density"),
+    **dict.fromkeys(("Pa", "kPa", "MPa", "GPa", "bar", "mbar", "psi", "ksi"), "pressure"),
+    **dict.fromkeys(("K", "degC"), "temperature"),
+    **dict.fromkeys(("J", "kJ"), "energy"),
+    **dict.fromkeys(("%", "1", "-"), None),
+}
+KNOWN_UNITS: frozenset[str] = frozenset(UNIT_QUANTITY)
 
 
 def check_units(units: dict[str, str] | None, where: str, channels: dict[str, str] | None = None) -> dict[str, str]:
