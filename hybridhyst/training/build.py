@@ -54,8 +54,8 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names, "units": dm.units,
               "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
               "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
-              "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.get("lr_schedule", "constant")),
-              "lr_final_ratio": float(cfg.trainer.get("lr_final_ratio", 0.01))}
+              "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.lr_schedule),
+              "lr_final_ratio": float(cfg.trainer.lr_final_ratio)}
     sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
