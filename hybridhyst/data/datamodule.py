@@ -92,8 +92,9 @@ class Normaliser:
 class _Sequences(Dataset):
     """Windows ``(record, start)`` of length ``window`` (whole records when ``window`` is None)."""
 
-    def __init__(self, prepared, cond, window: int | None, warmup: int, stride: int, keep: np.ndarray | None = None):
-        self.prepared, self.cond, self.window, self.warmup = prepared, cond, window, warmup
+    def __init__(self, prepared, cond, window: int | None, warmup: int, stride: int, keep: np.ndarray | None = None,
+                 past: int = 0):
+        self.prepared, self.cond, self.window, self.warmup, self.past = prepared, cond, window, warmup, int(past)
         if window is None:
             self.items = [(i, 0) for i in range(len(prepared))]
         else:
@@ -122,6 +123,12 @@ class _Sequences(Dataset):
         item.update(mask=mask, cond=torch.as_tensor(self.cond[i], dtype=torch.float64),
                     y0=torch.tensor([p["y"][s], dy], dtype=torch.float64), index=torch.tensor(i),
                     start=torch.tensor(s))
+        if self.past:  # (u, y) over the `past` samples before the window, the first sample repeated before a record
+            lo = max(s - self.past, 0)
+            seg = np.stack([p["u"][lo:s], p["y"][lo:s]], axis=1) if s > 0 else np.zeros((0, 2))
+            first = np.array([[p["u"][0], p["y"][0]]])
+            item["past"] = torch.as_tensor(np.concatenate([np.repeat(first, self.past - len(seg), axis=0), seg]),
+                                           dtype=torch.float64)
         return item
 
 
@@ -154,6 +161,8 @@ class RecordDataModule(L.LightningDataModule):
     conditions : numeric conditions fed to networks and parameter functions (e.g. ``["tension_lb"]``).
     window : training window length [samples on the thinned grid]; None trains on whole records.
     warmup : leading samples of each window (after the record's first) excluded from the loss.
+    past : samples of (u, y) before each window given with it (``batch["past"]``, ``(batch, past, 2)``), for an
+        encoder of the window's start state (``encoder.past`` of ``hybridhyst-train``); 0: none.
     stride : step between window starts (default ``window // 2``).
     samples_per_cycle, downsample, frequency_condition : thinning (``decimation_factors``).
     batch_size : windows per training batch; train_fraction : fraction of the training windows kept
@@ -166,7 +175,7 @@ class RecordDataModule(L.LightningDataModule):
                  warmup: int = 32, stride: int | None = None, samples_per_cycle: int | None = None,
                  downsample: int = 1, frequency_condition: str = "frequency_hz", batch_size: int = 16,
                  train_fraction: float = 1.0, seed: int = 0, label_conditions: Sequence[str] | None = None,
-                 num_workers: int = 0):
+                 num_workers: int = 0, past: int = 0):
         super().__init__()
         records = records if isinstance(records, RecordSet) else RecordSet(list(records))
         if len(records) == 0:
@@ -179,6 +188,9 @@ class RecordDataModule(L.LightningDataModule):
         self.condition_names = list(conditions)
         self.window = None if window is None else int(window)
         self.warmup, self.batch_size, self.num_workers = int(warmup), int(batch_size), int(num_workers)
+        if int(past) < 0:
+            raise ValueError(f"past must be >= 0 samples, got {past}")
+        self.past = int(past)
         self.stride = int(stride) if stride else max(1, (self.window or 2) // 2)
         self.train_fraction, self.seed = float(train_fraction), int(seed)
         self.label_conditions = label_conditions
@@ -224,7 +236,8 @@ class RecordDataModule(L.LightningDataModule):
         if self.train_fraction < 1.0:
             n = max(1, round(self.train_fraction * len(full)))
             keep = np.sort(np.random.default_rng(self.seed).choice(len(full), n, replace=False))
-        return _Sequences(self.prepared["train"], self.cond["train"], self.window, self.warmup, self.stride, keep)
+        return _Sequences(self.prepared["train"], self.cond["train"], self.window, self.warmup, self.stride, keep,
+                          self.past)
 
     # -- what modules need to know ------------------------------------------------------------------
     def records(self, split: str) -> RecordSet:
@@ -256,7 +269,7 @@ class RecordDataModule(L.LightningDataModule):
 
     # -- loaders -----------------------------------------------------------------------------------
     def whole(self, split: str) -> _Sequences:
-        return _Sequences(self.prepared[split], self.cond[split], None, 0, 1)
+        return _Sequences(self.prepared[split], self.cond[split], None, 0, 1, past=self.past)
 
     def train_dataloader(self):
         return DataLoader(self._train, batch_size=self.batch_size, sampler=EpochShuffle(len(self._train), self.seed),

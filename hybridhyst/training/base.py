@@ -12,7 +12,7 @@ import torch
 from torch import nn
 
 from ..data.datamodule import Normaliser
-from ..nets import count_parameters
+from ..nets import build_net, count_parameters
 from ..physics.models import DrivenOscillator
 from ..simulate import simulate
 from .losses import data_loss
@@ -182,9 +182,39 @@ class SequenceModule(L.LightningModule):
 
 
 class NominalMixin:
-    """A nominal model simulated along the batch (each row on its own time grid), on the compiled fast path."""
+    """A nominal model simulated along the batch (each row on its own time grid), on the compiled fast path.
+
+    A training window that starts inside a record needs the state there. An oscillator whose output is the
+    position starts at the measured (y, ẏ) and every other state at rest; the first ``warmup`` samples are not
+    scored while the rest forgets. With an encoder (``_setup_encoder(past)``, ``encoder.past`` of
+    ``hybridhyst-train``) an MLP reads the ``past`` samples of (u, y) before the window (and the conditions) and
+    adds its estimate to that start, every state scaled by its spread in a simulation of the first training
+    batch, as subspace-encoder methods do (Beintema, Tóth, Schoukens, "Deep subspace encoders for nonlinear
+    system identification", Automatica 156, 2023). Its last layer starts at zero: training starts from the
+    plain start. Whole records (validation, test) start at rest as before: the encoder only serves training.
+    """
 
     nominal: nn.Module
+
+    @property
+    def model(self):
+        """The model that is simulated (the nominal here; a hybrid's augmented model in ``HybridModule``)."""
+        return self.nominal
+
+    def _setup_encoder(self, past: int = 0, hidden="2x32"):
+        """An MLP encoder of each window's start state from the ``past`` samples before it (0: none)."""
+        self.past, self.encoder = int(past), None
+        if self.past < 0:
+            raise ValueError(f"encoder.past must be >= 0 samples, got {past}")
+        if not self.past:
+            return
+        S = self.model.state_dim
+        if not S:
+            raise ValueError(f"encoder.past={past}: model {self.nominal.name!r} has no state to estimate at a window's "
+                             "start (a memoryless model); use encoder.past=0")
+        self.encoder = build_net("mlp", 2 * self.past + len(self.condition_names), S, hidden, activation="tanh",
+                                 zero_last=True).double()
+        self.register_buffer("state_scale", torch.zeros(S, dtype=torch.float64))  # from the first training batch
 
     def _setup_nominal(self, nominal, backend: str, method: str, substeps: int, trainable: bool):
         self.nominal = nominal
@@ -199,20 +229,48 @@ class NominalMixin:
             cond = {k: v.repeat_interleave(reps) for k, v in cond.items()}
         return cond
 
-    def _initial_state(self, batch):
-        """Oscillators whose output is the position start a mid-record window at the measured (y, ẏ)."""
-        if not (isinstance(self.nominal, DrivenOscillator) and self.nominal.outputs[0] == "x"):
-            return None
-        y0 = batch["y0"].to(self.dtype)
-        return torch.where((batch["start"] > 0)[:, None], y0, torch.zeros_like(y0))
+    def _initial_state(self, batch, model=None):
+        """The state each row starts from: oscillators whose output is the position start a mid-record window at
+        the measured (y, ẏ); with an encoder, its estimate is added wherever a window starts inside a record."""
+        measured = isinstance(self.nominal, DrivenOscillator) and self.nominal.outputs[0] == "x"
+        inside = batch["start"] > 0
+        base = None
+        if measured:
+            y0 = batch["y0"].to(self.dtype)
+            base = torch.where(inside[:, None], y0, torch.zeros_like(y0))
+        model = self.model if model is None else model
+        if getattr(self, "encoder", None) is None or model is not self.model or not bool(inside.any()):
+            return base  # the encoder estimates the simulated model's states (not the bare nominal's of a hybrid)
+        B = batch["t"].shape[0]
+        s0 = model.initial_state(model.evaluate(self.conditions(batch), B), B, base=base)
+        if not bool((self.state_scale > 0).all()):
+            self._fit_state_scale(batch, model, s0)
+        past = batch["past"].to(self.dtype)
+        feats = [self.norm.scale("u", past[..., 0]), self.norm.scale("y", past[..., 1])]
+        feats += [self.norm.scale(name, batch["cond"][:, j].to(self.dtype))[:, None]
+                  for j, name in enumerate(self.condition_names)]
+        offset = self.encoder(torch.cat(feats, dim=1)) * self.state_scale
+        return s0 + torch.where(inside[:, None], offset, torch.zeros_like(offset))
+
+    def _fit_state_scale(self, batch, model, s0):
+        """Each state's spread along the batch, simulated from the plain start (1 where a state stays put: the
+        network's latent states, dimensionless by design)."""
+        t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
+        U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
+        with torch.no_grad():
+            _, states = simulate(model, U, t=t, conditions=self.conditions(batch), initial_state=s0,
+                                 return_states=True, **self.sim)
+        sd = states.reshape(-1, states.shape[-1]).std(0)
+        self.state_scale.copy_(torch.where(torch.isfinite(sd) & (sd > 1e-12), sd, torch.ones_like(sd)))
 
     def simulate_nominal(self, batch, return_states: bool = False, model=None):
         """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input; ``model``
         simulates another model with the nominal's structure instead (a hybrid's augmented model)."""
         t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
         U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
-        res = simulate(self.nominal if model is None else model, U, t=t, conditions=self.conditions(batch),
-                       initial_state=self._initial_state(batch), return_states=return_states, **self.sim)
+        model = self.nominal if model is None else model
+        res = simulate(model, U, t=t, conditions=self.conditions(batch),
+                       initial_state=self._initial_state(batch, model), return_states=return_states, **self.sim)
         return (res[0][..., 0], res[1]) if return_states else res[..., 0]
 
     def nominal_values(self) -> dict[str, float]:

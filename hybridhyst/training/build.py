@@ -20,7 +20,8 @@ from .callbacks import LoopFigures
 from .config import check_kwargs, check_model_conditions, instantiate, load_records, split_options, to_plain
 from .modules import MODULES, load_nominal_state
 
-__all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "nominal_start", "run_info"]
+__all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "encoder_past", "nominal_start",
+           "run_info"]
 
 DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std-pinn"}
 NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
@@ -33,11 +34,21 @@ def build_datamodule(cfg: DictConfig) -> RecordDataModule:
 
     split = split_options(cfg)
     d = check_kwargs(to_plain(cfg.datamodule), RecordDataModule.__init__, "datamodule",
-                     reserved=("records", "held_out", "val", "seed"))
+                     reserved=("records", "held_out", "val", "seed", "past"))
     records = load_records(cfg, split["select"])
     check_conditions(records.split(held_out=split["held_out"], val=split["val"]), d.get("conditions") or [],
                      "datamodule.conditions")
-    return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed), **d)
+    return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed),
+                            past=encoder_past(cfg), **d)
+
+
+def encoder_past(cfg: DictConfig) -> int:
+    """Samples before each training window that the window-start encoder reads (``encoder.past``; 0: none)."""
+    past = (cfg.get("encoder") or {}).get("past") or 0
+    if cfg.get("module") not in ("physics", "hybrid") and past:
+        raise ValueError(f"encoder.past={past}: the window-start encoder belongs to a module with a nominal model "
+                         f"(physics, hybrid), not {cfg.get('module')!r}")
+    return int(past)
 
 
 def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | None = None):
@@ -57,6 +68,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
               "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.lr_schedule),
               "lr_final_ratio": float(cfg.trainer.lr_final_ratio)}
     sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
+    encoder = {"encoder_past": encoder_past(cfg), "encoder_hidden": (cfg.get("encoder") or {}).get("hidden", "2x32")}
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
         check_model_conditions(nominal, dm.split, "model")
@@ -72,12 +84,13 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
             identified = identify(cfg, dm, nominal)
     if kind == "physics":
         module = MODULES[kind](nominal, init_noise=loss.get("init_noise"), prior_weight=float(loss.prior_weight),
-                               prior_kind=loss.prior_kind, features=list(cfg.features), **sim, **common)
+                               prior_kind=loss.prior_kind, features=list(cfg.features), **encoder, **sim,
+                               **common)
     elif kind == "hybrid":
         module = MODULES[kind](nominal, residual=net.kind, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), features=list(cfg.features),
                                placement=str(cfg.placement),
-                               latent_states=int(cfg.latent_states), **sim, **common)
+                               latent_states=int(cfg.latent_states), **encoder, **sim, **common)
     elif kind == "std_pinn":
         module = MODULES[kind](nominal, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), **sim, **common)
@@ -157,4 +170,5 @@ def run_info(cfg: DictConfig) -> dict:
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
             "placement": str(cfg.placement) if kind == "hybrid" else None,
             "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
+            "encoder_past": encoder_past(cfg) if kind in ("physics", "hybrid") else None,
             "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}

@@ -44,14 +44,18 @@ class PhysicsModule(NominalMixin, SequenceModule):
     prior_weight, prior_kind : ``prior_weight · Σ|p − p_init|`` over the physical values ("l1", seed 000)
         or squared ("l2").
     backend, method, substeps : simulator settings.
+    encoder_past, encoder_hidden : an MLP encoder of each training window's start state from the
+        ``encoder_past`` samples of (u, y) before it (``NominalMixin``); 0: none.
     """
 
     kind = "physics"
 
     def __init__(self, nominal, normaliser: dict, init_noise: float | None = None, prior_weight: float = 0.0,
-                 prior_kind: str = "l1", backend: str = "fast", method: str = "rk4", substeps: int = 1, **kw):
+                 prior_kind: str = "l1", backend: str = "fast", method: str = "rk4", substeps: int = 1,
+                 encoder_past: int = 0, encoder_hidden="2x32", **kw):
         super().__init__(normaliser, **kw)
         self._setup_nominal(nominal, backend, method, substeps, trainable=True)
+        self._setup_encoder(encoder_past, encoder_hidden)
         if init_noise:
             self._reinitialise(float(init_noise))
         self.prior_weight, self.prior_kind = float(prior_weight), prior_kind
@@ -102,13 +106,17 @@ class HybridModule(NominalMixin, SequenceModule):
     residual : "mlp" (pointwise, last layer zero-initialised) or "lstm" (output placement only); hidden :
         "4x128" etc.; activation : MLP activation (tanh as seed 003).
     placement : "output" or "dynamics"; latent_states : the dynamics network's latent states (≥ 0).
+    encoder_past, encoder_hidden : an MLP encoder of each training window's start state (the simulated model's:
+        with ``placement="dynamics"`` the latent states included) from the ``encoder_past`` samples of (u, y)
+        before it (``NominalMixin``); 0: none.
     """
 
     kind = "hybrid"
 
     def __init__(self, nominal, normaliser: dict, residual: str = "mlp", hidden="4x128", activation: str = "tanh",
                  freeze_nominal: bool = False, nominal_state: str | None = None, backend: str = "fast",
-                 method: str = "rk4", substeps: int = 1, placement: str = "output", latent_states: int = 0, **kw):
+                 method: str = "rk4", substeps: int = 1, placement: str = "output", latent_states: int = 0,
+                 encoder_past: int = 0, encoder_hidden="2x32", **kw):
         super().__init__(normaliser, **kw)
         if placement not in ("output", "dynamics"):
             raise ValueError(f"unknown placement {placement!r}; choose 'output' or 'dynamics'")
@@ -127,11 +135,12 @@ class HybridModule(NominalMixin, SequenceModule):
             self.net = NeuralEffect(("x", "v"), self.latent_states, hidden, activation,
                                     scales=neural_scales(nominal, self.norm), conditions=conditions)
             self.__dict__["_augmented"] = nominal.augmented({NEURAL: self.net})  # not a submodule: its parameters
-            return  # are registered as the nominal's and the net's
-        self.net = build_net(residual, self.n_features, 1, hidden, activation=activation, zero_last=True)
-        if residual == "lstm" and self.lambda_phys > 0 and isinstance(nominal, DrivenOscillator):
-            raise ValueError("the physics residual of an oscillator needs pointwise time derivatives of the "
-                             "residual branch; use residual=mlp, or lambda_phys=0 with an LSTM branch")
+        else:  # are registered as the nominal's and the net's
+            self.net = build_net(residual, self.n_features, 1, hidden, activation=activation, zero_last=True)
+            if residual == "lstm" and self.lambda_phys > 0 and isinstance(nominal, DrivenOscillator):
+                raise ValueError("the physics residual of an oscillator needs pointwise time derivatives of the "
+                                 "residual branch; use residual=mlp, or lambda_phys=0 with an LSTM branch")
+        self._setup_encoder(encoder_past, encoder_hidden)
 
     @property
     def model(self):
