@@ -103,3 +103,10 @@ def test_encoder_options_are_checked():
         PhysicsModule(Constitutive({"spring": EFFECTS["linear_stiffness"](k=1.0)}).double(), norm, encoder_past=8)
     hybrid = HybridModule(_oscillator(), norm, hidden="1x8", placement="dynamics", latent_states=2, encoder_past=8)
     assert hybrid.encoder.head.out_features == 4  # x, v and the network's two latent states
+    from omegaconf import OmegaConf
+
+    from hybridhyst.training.build import encoder_past
+
+    assert encoder_past(OmegaConf.create({"module": "hybrid", "encoder": {"past": 16}})) == 16
+    with pytest.raises(ValueError, match="belongs to a module with a nominal model"):
+        encoder_past(OmegaConf.create({"module": "lstm", "encoder": {"past": 16}}))
