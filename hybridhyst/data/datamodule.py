@@ -124,11 +124,8 @@ class _Sequences(Dataset):
                     y0=torch.tensor([p["y"][s], dy], dtype=torch.float64), index=torch.tensor(i),
                     start=torch.tensor(s))
         if self.past:  # (u, y) over the `past` samples before the window, the first sample repeated before a record
-            lo = max(s - self.past, 0)
-            seg = np.stack([p["u"][lo:s], p["y"][lo:s]], axis=1) if s > 0 else np.zeros((0, 2))
-            first = np.array([[p["u"][0], p["y"][0]]])
-            item["past"] = torch.as_tensor(np.concatenate([np.repeat(first, self.past - len(seg), axis=0), seg]),
-                                           dtype=torch.float64)
+            rows = np.clip(np.arange(s - self.past, s), 0, None)
+            item["past"] = torch.as_tensor(np.stack([p["u"][rows], p["y"][rows]], axis=1), dtype=torch.float64)
         return item
 
 

@@ -93,9 +93,13 @@ class SequenceModule(L.LightningModule):
             ch.update(u=inputs.u, du=inputs.du, ddu=inputs.ddu)
         cols = [self.norm.scale(name, ch[name]) for name in self.feature_names]
         T = cols[0].shape[1] if cols else batch["t"].shape[1]
-        for j, name in enumerate(self.condition_names):
-            cols.append(self.norm.scale(name, batch["cond"][:, j])[:, None].expand(-1, T))
+        cols += [c[:, None].expand(-1, T) for c in self.condition_features(batch)]
         return torch.stack(cols, dim=-1).to(self.dtype)
+
+    def condition_features(self, batch) -> list[torch.Tensor]:
+        """Each numeric condition of the batch normalised, one ``(batch,)`` tensor per condition."""
+        return [self.norm.scale(name, batch["cond"][:, j].to(self.dtype))
+                for j, name in enumerate(self.condition_names)]
 
     @property
     def y_scale(self) -> float:
@@ -247,8 +251,7 @@ class NominalMixin:
             self._fit_state_scale(batch, model, s0)
         past = batch["past"].to(self.dtype)
         feats = [self.norm.scale("u", past[..., 0]), self.norm.scale("y", past[..., 1])]
-        feats += [self.norm.scale(name, batch["cond"][:, j].to(self.dtype))[:, None]
-                  for j, name in enumerate(self.condition_names)]
+        feats += [c[:, None] for c in self.condition_features(batch)]
         offset = self.encoder(torch.cat(feats, dim=1)) * self.state_scale
         return s0 + torch.where(inside[:, None], offset, torch.zeros_like(offset))
 
