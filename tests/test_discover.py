@@ -226,3 +226,42 @@ def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network()
     assert not structure_flagged({"explained_share": 0.9}, train_rmse=0.21, noise_sd=0.2)
     assert structure_flagged({"explained_share": 0.3}, train_rmse=0.3, noise_sd=None)
     assert not structure_flagged({"explained_share": 0.05}, train_rmse=0.3, noise_sd=None)
+
+
+def test_the_chosen_structure_is_refitted_on_training_and_validation_records(float64):
+    """A spring + dashpot fitted at 0.5-1 Hz, validated at 3 Hz, tested at 2 Hz (data from the closed form,
+    not the library's simulator). With ``refit`` the final parameters use the 3 Hz record as well; the
+    reported validation error stays the training-only fit's (out of sample), the test error and the
+    predictions are the returned model's."""
+    from hybridhyst.physics.build import build_model
+
+    rng = np.random.default_rng(3)
+    recs = []
+    for amp, f in [(1.0, 0.5), (0.5, 1.0), (0.8, 3.0), (0.6, 2.0)]:
+        t = np.arange(201) / (100 * f)
+        x, v = amp * np.sin(2 * np.pi * f * t), 2 * np.pi * f * amp * np.cos(2 * np.pi * f * t)
+        y = 1.5 * x + 0.1 * v + 0.01 * rng.standard_normal(t.size)
+        recs.append(Record(name=f"s{f:g}", t=t, x=x, y=y, conditions={"frequency_hz": f},
+                           units={"x": "in", "y": "kip"}))
+    split = {"held_out": {"frequency_hz": [2.0]}, "val": {"frequency_hz": [3.0]}}
+
+    def run(refit):
+        nominal = build_model("constitutive", {"spring": {"effect": "linear_stiffness", "k": 1.0},
+                                               "viscous": {"effect": "viscous", "c": 0.3}},
+                              units={"x": "in", "F": "kip", "t": "s"}).double()
+        return discover(RecordSet(recs), nominal, split=split, conditions=False, max_steps=0, fit_nominal=False,
+                        refit=refit, progress=False)
+
+    plain, refitted = run(False), run(True)
+    a, b = plain.report, refitted.report
+    assert a["refit"] is None and b["settings"]["refit"] and b["refit"]["records"] == ["s0.5", "s1", "s3"]
+    assert b["after"]["val_rmse"] == pytest.approx(a["after"]["val_rmse"])  # out of sample, not the refit's
+    assert b["refit"]["after"]["val_rmse_in_sample"] < a["after"]["val_rmse"]
+    assert b["refit"]["after"]["test_rmse_without_refit"] == pytest.approx(a["after"]["test_rmse"])
+    assert b["refit"]["after"]["parameters_without_refit"] == a["after"]["parameters"]
+    assert b["after"]["parameters"] != a["after"]["parameters"]
+    test = refitted.splits["test"][0]
+    with torch.no_grad():
+        pred = simulate(refitted.model, [test])[0][:, 0].numpy()
+    assert math.sqrt(np.mean((pred - test.y) ** 2)) == pytest.approx(b["after"]["test_rmse"], rel=1e-6)
+    np.testing.assert_allclose(refitted.predictions["after"]["test"][0], pred, rtol=1e-9, atol=1e-12)

@@ -362,7 +362,7 @@ def test_fast_cases_end_to_end_pass(name):
     assert row["ok"] and row["ok_rmse"] and row["ok_effect"], row
 
 
-# -- (d) the whole bed against its targets (expected to fail until the loop meets them) ---------------------------
+# -- (d) the whole bed against its targets ----------------------------------------------------------------------------
 
 
 @pytest.mark.slow

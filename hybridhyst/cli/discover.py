@@ -73,6 +73,9 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str) -> list[str]:
     for key, what in (("val_rmse", "validation"), ("test_rmse", "test"), ("train_rmse", "training")):
         if b.get(key) is not None or a.get(key) is not None:
             lines.append(f"  {what} RMSE {fmt(b.get(key))} -> {fmt(a.get(key))}{u}")
+    if report.get("refit"):
+        lines.append("  (validation: the training-only fits; test and training: both refitted on training + "
+                     "validation records)")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 
@@ -96,7 +99,8 @@ def run(cfg: DictConfig) -> dict:
                        label_conditions=to_plain(d.label_conditions), margin=float(d.margin), criterion=d.criterion,
                        max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,
                        fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
-                       backend=d.backend, method=d.method, substeps=int(d.substeps), progress=bool(cfg.progress))
+                       backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
+                       progress=bool(cfg.progress))
         result = discover(records, model, **options)
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"

@@ -119,7 +119,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              margin: float = 0.02, criterion: str = "bic", max_steps: int = 4,
              top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
-             method: str = "rk4", substeps: int = 1, progress: bool = True) -> DiscoveryResult:
+             method: str = "rk4", substeps: int = 1, refit: bool = True,
+             progress: bool = True) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -140,6 +141,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
         ``identify_options``); else start from its current values.
     backend, method, substeps : simulator settings ("fast": compiled, cached per model structure).
+    refit : once the structure is chosen, refit every parameter of the final model, and of the nominal it is
+        compared with, on the training *and* validation records (as a cross-validated search refits its
+        winner on all the data it may use). The validation RMSEs reported stay those of the training-only
+        fits, measured before the refit (out of sample); test and training errors, parameters and
+        predictions are the refitted models'. ``report["refit"]`` keeps the numbers without the refit.
 
     Raises
     ------
@@ -264,8 +270,23 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             g["after_step"] = len(steps)
             tried.add(g["effect"])  # a removed or replaced effect is not offered again
         removed += gone
-    model = fit.model
-    preds_after, after = evaluate(model, _at(sim, fit))
+    model, final_sim = fit.model, _at(sim, fit)
+    preds_after, after = evaluate(model, final_sim)
+    refitted = None
+    if refit and val:  # the structure is chosen: its parameters (and the nominal's) use every non-test record
+        chosen = {"before": (initial, before), "after": (model, after)}
+        initial, initial_sim = _refit_on(initial, train + val, initial_sim, lm_steps, box_factor)
+        model, final_sim = _refit_on(model, train + val, final_sim, lm_steps, box_factor)
+        preds_before, before = evaluate(initial, initial_sim)
+        preds_after, after = evaluate(model, final_sim)
+        refitted = {"records": [r.name for r in train + val]}
+        for side, now in (("before", before), ("after", after)):
+            m, was = chosen[side]
+            refitted[side] = {"val_rmse_in_sample": now["val"].get("rmse"),
+                              "test_rmse_without_refit": was["test"].get("rmse"),
+                              "train_rmse_without_refit": was["train"]["rmse"],
+                              "parameters_without_refit": _parameters(m)}
+            now["val"] = was["val"]  # the validation error stays out of sample
     diag_after = diagnose(train, preds_after["train"], noise_sd)
     network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
     nominal_effects = {e.name for e in initial.effects.values()}
@@ -288,12 +309,22 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
                      "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
-                     "backend": backend, "substeps": substeps, "substeps_final": fit.substeps},
+                     "backend": backend, "substeps": substeps, "substeps_final": final_sim["substeps"],
+                     "refit": bool(refit and val)},
+        "refit": refitted,
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
         "wall_s": time.perf_counter() - start,
     }
     return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
                            splits=splits, initial_model=initial)
+
+
+def _refit_on(model, records, sim: dict, lm_steps: int, box_factor: float):
+    """A copy of ``model`` with every coordinate refitted on ``records`` (LM from its values); its settings."""
+    import copy
+
+    f = polish(copy.deepcopy(model), records, sim, lm_steps, box_factor)
+    return f.model, _at(sim, f)
 
 
 FLAG_SHARE = 0.1  # residual variance a small network recovers on validation above which structure is flagged

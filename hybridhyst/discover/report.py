@@ -97,6 +97,13 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
              "", "## Error before and after", "", f"| split | before [{unit}] | after [{unit}] |", "|---|---|---|"]
     for s in ("train", "val", "test"):
         lines.append(f"| {s} | {_fmt(b.get(f'{s}_rmse'))} | {_fmt(a.get(f'{s}_rmse'))} |")
+    if r.get("refit"):
+        rf = r["refit"]
+        lines += ["", "Validation errors are those of the fits on the training records alone (out of sample). Once "
+                  "the structure was chosen, the nominal and the final model were refitted on the training and "
+                  f"validation records ({len(rf['records'])}); test and training errors are the refitted models' "
+                  f"(without the refit: test {_fmt(rf['before']['test_rmse_without_refit'])} → "
+                  f"{_fmt(rf['after']['test_rmse_without_refit'])} {unit})."]
     if b["per_condition"]:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
