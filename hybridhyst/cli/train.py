@@ -40,7 +40,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..data.datamodule import RecordDataModule
 from ..training import predict_split, predictions_frame, split_metrics
-from ..training.build import build_datamodule, build_trainer, nominal_start, run_info
+from ..training.build import build_datamodule, build_trainer, lbfgs_settings, nominal_start, run_info
 from ..training.build import build_module as _build_module
 from ..training.config import check_kwargs, to_plain
 from .common import (
@@ -201,6 +201,13 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
             starting.capture(module, dm, nominal_start(cfg))
         t0 = time.perf_counter()
         trainer.fit(module, dm, ckpt_path=cfg.get("ckpt_path"))
+        epochs = int(trainer.current_epoch)
+        lbfgs = lbfgs_settings(cfg)
+        if lbfgs is not None:  # full-batch L-BFGS from where Adam ended, in a trainer of its own
+            module.use_lbfgs(lbfgs["max_iter"], lbfgs["history_size"], chunk=dm.batch_size, epoch_offset=epochs)
+            dm.batch_size = len(dm.train_dataloader().dataset)
+            trainer = build_trainer(cfg, run_dir, after=trainer)
+            trainer.fit(module, dm)
         train_time = time.perf_counter() - t0
         best = trainer.checkpoint_callback.best_model_path if trainer.checkpoint_callback else ""
         if best and cfg.evaluate_best:
@@ -218,7 +225,8 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
     if not trainer.is_global_zero:  # DDP: one process writes the run directory
         return {}
     metrics = {s: split_metrics(p) for s, p in preds.items()}
-    meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=int(trainer.current_epoch),
+    meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=epochs,
+                lbfgs_steps_done=int(trainer.current_epoch) if lbfgs is not None else 0,
                 train_windows=len(dm.train_dataloader().dataset),
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},
                 evaluated="best" if best and cfg.evaluate_best else "last")

@@ -27,8 +27,8 @@ __all__ = [
 
 SPLITS = ("test", "val", "train")
 METRICS = ("rmse", "mae", "nrmse", "n")
-INFO_FIELDS = ("module", "name", "residual", "placement", "encoder_past", "hidden", "lambda_phys", "seed",
-               "train_fraction", "n_parameters", "train_time_s", "epochs", "train_windows", "data", "model",
+INFO_FIELDS = ("module", "name", "residual", "placement", "encoder_past", "lbfgs_steps", "hidden", "lambda_phys",
+               "seed", "train_fraction", "n_parameters", "train_time_s", "epochs", "train_windows", "data", "model",
                "experiment")
 # Outcomes of a run rather than settings: runs that differ only in these belong to one configuration.
 MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs", "train_windows")

@@ -80,6 +80,8 @@ class SequenceModule(L.LightningModule):
         self.history: list[dict] = []  # per-epoch parameter values (modules with a nominal)
         self._val = {"sse": 0.0, "sae": 0.0, "n": 0}
         self._epoch_start = time.perf_counter()
+        self.lbfgs: dict | None = None  # set by use_lbfgs: the stage after Adam
+        self.epoch_offset = 0  # epochs before this stage (the history counts on from the Adam epochs)
 
     # -- features ----------------------------------------------------------------------------------
     @property
@@ -118,24 +120,82 @@ class SequenceModule(L.LightningModule):
 
     # -- Lightning ---------------------------------------------------------------------------------
     def training_step(self, batch, batch_idx):
+        if self.lbfgs is not None:
+            return self._lbfgs_step(batch)
+        loss = self._objective(batch, log=True)
+        if loss is None:  # a diverged simulation or residual: skip this step, count it
+            self.log("train/skipped_steps", 1.0, batch_size=batch["y"].shape[0], on_step=False, on_epoch=True,
+                     reduce_fx="sum")
+            return None
+        self.log("train/loss", loss, batch_size=batch["y"].shape[0], on_step=False, on_epoch=True, prog_bar=True)
+        return loss
+
+    def _objective(self, batch, log: bool = False, share: tuple[float, float, bool] = (1.0, 1.0, True)
+                   ) -> torch.Tensor | None:
+        """The training loss of ``batch``: data loss (+ λ_phys · physics loss) (+ prior); None if not finite.
+        ``share``: for a chunk of a larger batch, its share of the scored samples (the data loss is their mean),
+        its share of the windows (the physics loss is a mean over windows) and whether it carries the prior,
+        so that the chunks' losses add up to the whole batch's."""
         out = self(batch)
         scale = self.y_scale if self.normalise_loss else 1.0
         loss = data_loss(out["y"], batch["y"].to(out["y"]), batch["mask"].to(out["y"]), scale, self.loss_kind)
+        loss = loss * share[0]
         B = batch["y"].shape[0]
-        self.log("train/data_loss", loss, batch_size=B, on_step=False, on_epoch=True)
+        if log:
+            self.log("train/data_loss", loss, batch_size=B, on_step=False, on_epoch=True)
         if self.lambda_phys > 0:
             phys = self.physics_loss(batch, out)
             if phys is not None:
-                self.log("train/phys_loss", phys, batch_size=B, on_step=False, on_epoch=True)
-                loss = loss + self.lambda_phys * phys
-        prior = self.prior_loss()
+                if log:
+                    self.log("train/phys_loss", phys, batch_size=B, on_step=False, on_epoch=True)
+                loss = loss + self.lambda_phys * phys * share[1]
+        prior = self.prior_loss() if share[2] else None
         if prior is not None:
-            self.log("train/prior_loss", prior, batch_size=B, on_step=False, on_epoch=True)
+            if log:
+                self.log("train/prior_loss", prior, batch_size=B, on_step=False, on_epoch=True)
             loss = loss + prior
-        if not torch.isfinite(loss):  # a diverged simulation or residual: skip this step, count it
-            self.log("train/skipped_steps", 1.0, batch_size=B, on_step=False, on_epoch=True, reduce_fx="sum")
-            return None
+        return loss if torch.isfinite(loss) else None
+
+    # -- L-BFGS stage ------------------------------------------------------------------------------
+    def use_lbfgs(self, max_iter: int = 20, history_size: int = 50, chunk: int = 64, epoch_offset: int = 0) -> None:
+        """Switch to full-batch L-BFGS (``torch.optim.LBFGS``, strong-Wolfe line search): each training step
+        is one L-BFGS step over the whole batch, its loss and gradient accumulated over chunks of ``chunk``
+        windows (the same mean as one pass over the batch, in bounded memory). For the stage after Adam
+        (``trainer.lbfgs``), as universal differential equations are trained: Adam, then a quasi-Newton
+        method to converge. ``epoch_offset``: the epochs before, for the parameter history."""
+        if int(max_iter) < 1 or int(history_size) < 1 or int(chunk) < 1:
+            raise ValueError(f"L-BFGS needs max_iter, history_size and chunk >= 1, got {max_iter}, {history_size}, "
+                             f"{chunk}")
+        self.lbfgs = {"max_iter": int(max_iter), "history_size": int(history_size), "chunk": int(chunk)}
+        self.automatic_optimization = False
+        self.epoch_offset = int(epoch_offset)
+
+    def _lbfgs_step(self, batch):
+        opt = self.optimizers()
+        B, scored = batch["y"].shape[0], float(batch["mask"].sum().clamp_min(1.0))
+        parts = [slice(i, i + self.lbfgs["chunk"]) for i in range(0, B, self.lbfgs["chunk"])]
+
+        evaluations = 0
+
+        def closure():
+            nonlocal evaluations
+            evaluations += 1
+            opt.zero_grad()
+            total = torch.zeros((), dtype=self.dtype)
+            for sl in parts:
+                part = {k: v[sl] for k, v in batch.items()}
+                share = (float(part["mask"].sum()) / scored, part["y"].shape[0] / B, sl.start == 0)
+                loss = self._objective(part, share=share)
+                if loss is None:  # the line search is told this point is no good
+                    return torch.tensor(math.inf, dtype=self.dtype)
+                self.manual_backward(loss)
+                total = total + loss.detach()
+            return total
+
+        loss = opt.step(closure)
         self.log("train/loss", loss, batch_size=B, on_step=False, on_epoch=True, prog_bar=True)
+        self.log("train/lbfgs_evaluations", float(evaluations), batch_size=B, on_step=False, on_epoch=True,
+                 reduce_fx="sum")
         return loss
 
     def on_validation_epoch_start(self):
@@ -171,6 +231,9 @@ class SequenceModule(L.LightningModule):
             groups += [{"params": [p], "lr": self.nominal_lr * max(float(p.detach().abs().max()), 1.0),
                         "weight_decay": 0.0} for p in nominal.parameters() if p.requires_grad]
         groups = [g for g in groups if g["params"]]
+        if self.lbfgs is not None:  # one group: L-BFGS scales its steps itself
+            return torch.optim.LBFGS([p for g in groups for p in g["params"]], lr=1.0, max_iter=self.lbfgs["max_iter"],
+                                     history_size=self.lbfgs["history_size"], line_search_fn="strong_wolfe")
         optimizer = torch.optim.Adam(groups, lr=self.lr)
         if self.lr_schedule == "constant":
             return optimizer
@@ -317,7 +380,7 @@ class NominalMixin:
 
     def on_train_epoch_end(self):
         values = self.nominal_values()
-        self.history.append({"epoch": int(self.current_epoch), **values})
+        self.history.append({"epoch": self.epoch_offset + int(self.current_epoch), **values})
         for key, v in values.items():
             self.log(f"phys/{key} [{self.nominal_unit(key)}]", v)
 

@@ -115,41 +115,76 @@ def nominal_start(cfg: DictConfig) -> str | None:
     return "model" if method == "none" else method  # build_module refuses an unknown method
 
 
-def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = ()) -> L.Trainer:
+def lbfgs_settings(cfg: DictConfig) -> dict | None:
+    """``trainer.lbfgs`` checked: ``{"steps", "max_iter", "history_size", "check_val_every_n_epoch"}``, or None
+    when the run has no L-BFGS stage (``steps: 0`` or no block)."""
+    block = to_plain(cfg.trainer.get("lbfgs")) or {}
+    known = {"steps", "max_iter", "history_size", "check_val_every_n_epoch"}
+    unknown = sorted(set(block) - known)
+    if unknown:
+        raise ValueError(f"unknown trainer.lbfgs key(s) {unknown}; the keys are {sorted(known)}")
+    out = {"steps": int(block.get("steps") or 0), "max_iter": int(block.get("max_iter", 20)),
+           "history_size": int(block.get("history_size", 50)),
+           "check_val_every_n_epoch": int(block.get("check_val_every_n_epoch", 1))}
+    if out["steps"] < 0 or min(out["max_iter"], out["history_size"], out["check_val_every_n_epoch"]) < 1:
+        raise ValueError(f"trainer.lbfgs needs steps >= 0 and max_iter, history_size, check_val_every_n_epoch >= 1, "
+                         f"got {out}")
+    return out if out["steps"] else None
+
+
+def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), after: L.Trainer | None = None
+                  ) -> L.Trainer:
     """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
-    ``callbacks``; ``cfg.trainer`` gives the accelerator, devices, strategy and the loop's settings."""
+    ``callbacks``; ``cfg.trainer`` gives the accelerator, devices, strategy and the loop's settings.
+
+    ``after``: the trainer of the Adam epochs; the new one runs the L-BFGS stage (``trainer.lbfgs``: its steps
+    as epochs, no gradient clipping, its logger version ``lbfgs``). It keeps ``after``'s best-checkpoint callback,
+    so ``best.ckpt`` stays the best of both stages, and writes no ``last.ckpt``: that stays the end of the Adam
+    epochs, and a run resumed from it repeats the (deterministic, full-batch) L-BFGS stage."""
     from lightning.pytorch.callbacks import ModelCheckpoint
 
     t = cfg.trainer
+    lbfgs = lbfgs_settings(cfg) if after is not None else None
+    if after is not None and lbfgs is None:
+        raise ValueError("build_trainer(after=...) is for the L-BFGS stage; trainer.lbfgs.steps is 0")
     # resuming keeps writing into the checkpoint's own folder, so the best score so far carries over
     ckpt_dir = Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else Path(run_dir) / "checkpoints"
     # best.ckpt: the best validation RMSE; last.ckpt: every epoch. Lightning >= 2.6 writes save_last's copy only
     # when a top-k checkpoint is saved at the same step (last.ckpt would be the best one, not the last), so
     # last.ckpt has a checkpoint callback of its own (listed second: it saves the best one's updated state)
-    callbacks = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=False,
-                                 filename="best", save_top_k=1),
-                 ModelCheckpoint(dirpath=ckpt_dir, monitor=None, save_top_k=1, filename="last",
-                                 enable_version_counter=False), *callbacks]
+    if after is None:
+        checkpoints = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=False,
+                                       filename="best", save_top_k=1),
+                       ModelCheckpoint(dirpath=ckpt_dir, monitor=None, save_top_k=1, filename="last",
+                                       enable_version_counter=False)]
+    else:
+        checkpoints = [after.checkpoint_callbacks[0]]
+    callbacks = [*checkpoints, *callbacks]
     logger = False
+    version = "" if after is None else "lbfgs"
     if cfg.logger.kind == "tensorboard":
         from lightning.pytorch.loggers import TensorBoardLogger
 
-        logger = TensorBoardLogger(save_dir=str(run_dir), name="tensorboard", version="", default_hp_metric=False)
+        logger = TensorBoardLogger(save_dir=str(run_dir), name="tensorboard", version=version, default_hp_metric=False)
         callbacks.append(LoopFigures(int(cfg.logger.loop_every_n_epochs), int(cfg.logger.max_loop_figures)))
     elif cfg.logger.kind == "csv":
         from lightning.pytorch.loggers import CSVLogger
 
-        logger = CSVLogger(save_dir=str(run_dir), name="csv", version="")
+        logger = CSVLogger(save_dir=str(run_dir), name="csv", version=version)
     elif cfg.logger.kind != "none":
         raise ValueError(f"unknown logger {cfg.logger.kind!r}; choose tensorboard, csv or none")
     extra = to_plain(t.get("extra")) or {}
-    return L.Trainer(max_epochs=int(t.max_epochs), accelerator=t.accelerator, devices=t.devices,
-                     strategy=t.strategy, num_nodes=int(t.num_nodes), precision=t.precision,
-                     gradient_clip_val=t.gradient_clip_val, log_every_n_steps=int(t.log_every_n_steps),
-                     check_val_every_n_epoch=int(t.check_val_every_n_epoch), deterministic=bool(t.deterministic),
-                     limit_train_batches=t.limit_train_batches, limit_val_batches=t.limit_val_batches,
-                     enable_progress_bar=bool(t.enable_progress_bar), enable_model_summary=False,
-                     default_root_dir=str(run_dir), logger=logger, callbacks=callbacks, **extra)
+    stage = {"max_epochs": int(t.max_epochs), "gradient_clip_val": t.gradient_clip_val,
+             "check_val_every_n_epoch": int(t.check_val_every_n_epoch)}
+    if lbfgs is not None:
+        stage = {"max_epochs": lbfgs["steps"], "gradient_clip_val": None,
+                 "check_val_every_n_epoch": lbfgs["check_val_every_n_epoch"]}
+    return L.Trainer(accelerator=t.accelerator, devices=t.devices, strategy=t.strategy, num_nodes=int(t.num_nodes),
+                     precision=t.precision, log_every_n_steps=int(t.log_every_n_steps),
+                     deterministic=bool(t.deterministic), limit_train_batches=t.limit_train_batches,
+                     limit_val_batches=t.limit_val_batches, enable_progress_bar=bool(t.enable_progress_bar),
+                     enable_model_summary=False, default_root_dir=str(run_dir), logger=logger, callbacks=callbacks,
+                     **stage, **extra)
 
 
 def run_info(cfg: DictConfig) -> dict:
@@ -171,4 +206,5 @@ def run_info(cfg: DictConfig) -> dict:
             "placement": str(cfg.placement) if kind == "hybrid" else None,
             "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
             "encoder_past": encoder_past(cfg) if kind in ("physics", "hybrid") else None,
-            "nominal_init": nominal_start(cfg), "experiment": cfg.get("experiment_name")}
+            "nominal_init": nominal_start(cfg), "lbfgs_steps": (lbfgs_settings(cfg) or {}).get("steps", 0),
+            "experiment": cfg.get("experiment_name")}

@@ -1,0 +1,84 @@
+"""The L-BFGS stage after Adam (``trainer.lbfgs``): one step equals torch's L-BFGS on the whole batch in one pass
+(the chunked loss and gradient are the full-batch mean), the stage lowers the training loss and keeps the best
+checkpoint of both stages, a run resumed after the Adam epochs ends where an uninterrupted one does, and bad
+settings are one-line errors."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from hybridhyst.cli import train
+from hybridhyst.cli.common import CONF_DIR
+from hybridhyst.training.build import build_datamodule, build_module, build_trainer
+
+SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none", "baseline=hybrid_mlp"]
+
+
+def _compose(overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(config_name="train", overrides=overrides)
+
+
+def test_one_lbfgs_step_is_torchs_lbfgs_on_the_whole_batch(tmp_path, float64):
+    cfg = _compose([*SMOKE, f"run_dir={tmp_path}", "trainer.lbfgs.steps=1", "trainer.lbfgs.max_iter=3",
+                    "datamodule.batch_size=2"])
+    dm = build_datamodule(cfg)
+    dm.setup("fit")
+    module = build_module(cfg, dm)
+    reference = copy.deepcopy(module)
+    windows = len(dm.train_dataloader().dataset)
+    assert windows > 2  # more than one chunk of 2 windows
+    module.use_lbfgs(max_iter=3, history_size=50, chunk=dm.batch_size)
+    dm.batch_size = windows
+    first = build_trainer(cfg, tmp_path, callbacks=[])  # only for its best-checkpoint callback
+    build_trainer(cfg, tmp_path, after=first).fit(module, dm)
+    batch = next(iter(dm.train_dataloader()))
+    params = [p for p in reference.parameters() if p.requires_grad]
+    opt = torch.optim.LBFGS(params, lr=1.0, max_iter=3, history_size=50, line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        loss = reference._objective(batch)  # the whole batch in one pass
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    moved = False
+    for (name, a), b in zip(module.named_parameters(), reference.parameters()):
+        torch.testing.assert_close(a, b, rtol=1e-6, atol=1e-9, msg=name)  # summation order aside
+        moved = moved or not torch.equal(b, dict(build_module(cfg, dm).named_parameters())[name])
+    assert moved
+
+
+def test_the_stage_lowers_the_training_error_and_a_resumed_run_repeats_it(tmp_path):
+    adam = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'adam'}"]))
+    both = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'both'}", "trainer.lbfgs.steps=3"]))
+    assert both["info"]["lbfgs_steps"] == 3 and both["info"]["lbfgs_steps_done"] == 3
+    assert both["info"]["epochs"] == adam["info"]["epochs"]
+    assert both["logged"]["train/lbfgs_evaluations"] >= 1
+    assert both["val"] == {} and both["train"]["rmse"] < adam["train"]["rmse"]  # validated on training records
+    ckpts = sorted(p.name for p in (tmp_path / "both" / "checkpoints").iterdir())
+    assert ckpts == ["best.ckpt", "last.ckpt"]
+    last = torch.load(tmp_path / "both" / "checkpoints" / "last.ckpt", weights_only=False)
+    assert last["epoch"] == adam["info"]["epochs"] - 1  # last.ckpt stays the end of the Adam epochs
+    resumed = train.run(_compose([*SMOKE, f"run_dir={tmp_path / 'resumed'}", "trainer.lbfgs.steps=3",
+                                  f"ckpt_path={tmp_path / 'adam' / 'checkpoints' / 'last.ckpt'}"]))
+    assert resumed["train"]["rmse"] == pytest.approx(both["train"]["rmse"], rel=1e-9)
+    assert resumed["test"]["rmse"] == pytest.approx(both["test"]["rmse"], rel=1e-9)
+    saved = json.loads((tmp_path / "both" / "metrics.json").read_text())
+    assert saved["info"]["lbfgs_steps"] == 3
+
+
+@pytest.mark.parametrize("override, match", [
+    ("trainer.lbfgs.max_iter=0", "trainer.lbfgs needs"),
+    ("trainer.lbfgs.steps=-1", "trainer.lbfgs needs"),
+    ("+trainer.lbfgs.stepz=3", r"unknown trainer.lbfgs key\(s\) \['stepz'\]"),
+])
+def test_bad_lbfgs_settings_are_one_line_errors(override, match, tmp_path):
+    with pytest.raises(ValueError, match=match):
+        train.run(_compose([*SMOKE, f"run_dir={tmp_path}", override]))
