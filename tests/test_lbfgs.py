@@ -78,7 +78,8 @@ def test_the_stage_lowers_the_training_error_and_a_resumed_run_repeats_it(tmp_pa
     ("trainer.lbfgs.max_iter=0", "trainer.lbfgs needs"),
     ("trainer.lbfgs.steps=-1", "trainer.lbfgs needs"),
     ("+trainer.lbfgs.stepz=3", r"unknown trainer.lbfgs key\(s\) \['stepz'\]"),
+    ("trainer.strategy=ddp", "trainer.lbfgs runs in one process"),
 ])
 def test_bad_lbfgs_settings_are_one_line_errors(override, match, tmp_path):
     with pytest.raises(ValueError, match=match):
-        train.run(_compose([*SMOKE, f"run_dir={tmp_path}", override]))
+        train.run(_compose([*SMOKE, f"run_dir={tmp_path}", "trainer.lbfgs.steps=2", override]))

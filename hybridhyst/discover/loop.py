@@ -13,6 +13,7 @@ improves.
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -178,8 +179,6 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(identify_options or {})}
         identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
                  substeps=substeps, **opts)
-    import copy
-
     scored = val or train
     splits = {"train": train, "val": val, "test": test}
 
@@ -321,8 +320,6 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
 
 def _refit_on(model, records, sim: dict, lm_steps: int, box_factor: float):
     """A copy of ``model`` with every coordinate refitted on ``records`` (LM from its values); its settings."""
-    import copy
-
     f = polish(copy.deepcopy(model), records, sim, lm_steps, box_factor)
     return f.model, _at(sim, f)
 

@@ -129,6 +129,12 @@ def lbfgs_settings(cfg: DictConfig) -> dict | None:
     if out["steps"] < 0 or min(out["max_iter"], out["history_size"], out["check_val_every_n_epoch"]) < 1:
         raise ValueError(f"trainer.lbfgs needs steps >= 0 and max_iter, history_size, check_val_every_n_epoch >= 1, "
                          f"got {out}")
+    t = cfg.trainer
+    devices = t.get("devices", 1)
+    if out["steps"] and (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
+                         or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
+        raise ValueError("trainer.lbfgs runs in one process (its line search needs the whole batch's loss): "
+                         "set trainer.lbfgs.steps=0 for a multi-device run")
     return out if out["steps"] else None
 
 
