@@ -174,7 +174,6 @@ class SequenceModule(L.LightningModule):
         opt = self.optimizers()
         B, scored = batch["y"].shape[0], float(batch["mask"].sum().clamp_min(1.0))
         parts = [slice(i, i + self.lbfgs["chunk"]) for i in range(0, B, self.lbfgs["chunk"])]
-
         evaluations = 0
 
         def closure():
@@ -186,7 +185,8 @@ class SequenceModule(L.LightningModule):
                 part = {k: v[sl] for k, v in batch.items()}
                 share = (float(part["mask"].sum()) / scored, part["y"].shape[0] / B, sl.start == 0)
                 loss = self._objective(part, share=share)
-                if loss is None:  # the line search is told this point is no good
+                if loss is None:  # a diverged simulation: the line search brackets back towards its start
+                    opt.zero_grad()
                     return torch.tensor(math.inf, dtype=self.dtype)
                 self.manual_backward(loss)
                 total = total + loss.detach()
