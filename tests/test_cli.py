@@ -179,6 +179,7 @@ KEY_CASES = [
     ("fit", "split.select", ["~split.held_out", "+split.held_ot=[{amplitude_in: [1.0]}]"],
      ["split.held_out", "split.held_ot"]),
     ("identify", "split.select", ["~noise_sd", "+noise_sdd=0.1"], ["noise_sd", "noise_sdd"]),
+    ("identify", "identify.pop", ["~identify.lm_steps", "+identify.lm_step=5"], ["identify.lm_steps", "identify.lm_step"]),
     ("train", "split.val", ["~datamodule.window", "+datamodule.windw=64"], ["datamodule.windw", "datamodule.window"]),
     ("discover", "thinning.downsample", ["~discover.margin", "+discover.margn=0.05"],
      ["discover.margin", "discover.margn"]),
@@ -216,6 +217,9 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
     assert message.startswith("error: config key title: its interpolation does not resolve")
     message = _one_line_error(identify.run, _compose("identify", tmp_path, ['+select={mixture: "1:3"}']), capsys)
     assert "split.select" in message
+    # a key identify() does not take (it was silently ignored): the app and training's nominal_init share the check
+    message = _one_line_error(identify.run, _compose("identify", tmp_path, ["+identify.popsize=8"]), capsys)
+    assert "unknown config key identify.popsize: did you mean identify.pop?" in message
 
 
 @pytest.mark.parametrize("app,override,expected", [

@@ -57,6 +57,23 @@ __all__ = [
 ]
 
 
+def identify_options(block, where: str, **settings) -> dict:
+    """``identify()`` keyword arguments from a config block of conf/identify.yaml's ``identify:`` keys with
+    ``settings`` laid over it (the one conversion of ``hybridhyst-identify`` and of ``hybridhyst-train``'s
+    ``nominal_init``): every key of conf/identify.yaml's block is read by item access (a deleted one is a
+    config error naming it), ``bounds`` become tuples, and a key ``identify()`` does not take is a one-line
+    error naming ``where``."""
+    from ..identify import identify
+
+    defaults = OmegaConf.load(os.path.join(CONF_DIR, "identify.yaml"))["identify"]
+    opts = {key: block[key] for key in defaults}
+    opts.update({k: block[k] for k in block if k not in opts})
+    opts = to_plain(opts)
+    opts.update(settings)
+    opts["bounds"] = {k: tuple(v) for k, v in (opts.get("bounds") or {}).items()}
+    return check_kwargs(opts, identify, where, reserved=("model", "records", "seed", "progress"))
+
+
 def check_app(cfg: DictConfig, app: str) -> None:
     """Experiment configs say which app they belong to (``app:``); refuse one meant for another app."""
     if cfg.get("app", app) != app:

@@ -14,7 +14,7 @@ import time
 
 import hydra
 import torch
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from ..data.records import RecordSet
 from ..identify import SearchSpace, identify
@@ -26,6 +26,7 @@ from .common import (
     check_model_conditions,
     guarded,
     hydra_entry,
+    identify_options,
     instantiate,
     load_records,
     prepare_run_dir,
@@ -35,10 +36,6 @@ from .common import (
 )
 
 __all__ = ["add_noise", "main", "run"]
-
-
-def _container(node):
-    return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
 
 
 def add_noise(records: RecordSet, noise_sd: float, seed: int) -> RecordSet:
@@ -58,16 +55,9 @@ def _load(cfg) -> RecordSet:
 
 
 def _identify(model, records, cfg):
-    opts = cfg.identify  # item access: a deleted or misspelt key is a config error naming it
     noise = float(cfg.noise_sd or 0.0)
-    return identify(model, records, method=opts["method"], pop=opts["pop"], generations=int(opts["generations"]),
-                    refine=opts["refine"], restarts=int(opts["restarts"]), lm_steps=int(opts["lm_steps"]),
-                    adam_steps=int(opts["adam_steps"]), lbfgs_steps=int(opts["lbfgs_steps"]), lr=float(opts["lr"]),
-                    bounds={k: tuple(v) for k, v in (_container(opts["bounds"]) or {}).items()},
-                    box_factor=float(opts["box_factor"]), noise_sd=noise or None, target=opts["target"],
-                    seed=int(cfg.seed), fisher=bool(opts["fisher"]), jacobian=opts["jacobian"],
-                    progress=bool(cfg.progress), ode_method=opts["ode_method"], substeps=int(opts["substeps"]),
-                    search_decimate=int(opts.get("search_decimate", 1)))
+    opts = identify_options(cfg.identify, "identify", noise_sd=noise or None)
+    return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), **opts)
 
 
 def _num(v) -> str:

@@ -42,13 +42,14 @@ from ..data.datamodule import RecordDataModule
 from ..training import predict_split, predictions_frame, split_metrics
 from ..training.build import build_datamodule, build_trainer, lbfgs_settings, nominal_start, run_info
 from ..training.build import build_module as _build_module
-from ..training.config import check_kwargs, to_plain
+from ..training.config import to_plain
 from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
     guarded,
     hydra_entry,
+    identify_options,
     jsonable,
     prepare_run_dir,
     run_dir_path,
@@ -73,14 +74,11 @@ def build_module(cfg: DictConfig, dm: RecordDataModule):
 def _identify_settings(cfg: DictConfig) -> dict:
     """identify() keyword arguments: conf/identify.yaml's ``identify:`` block (one source of the defaults),
     the training simulation settings, no Fisher analysis, then ``nominal_init.settings``."""
-    from ..identify import identify
-
-    opts = to_plain(OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"])
-    opts.update(fisher=False, ode_method=cfg.simulation.method, substeps=int(cfg.simulation.substeps),
-                backend=cfg.simulation.backend)
-    opts.update(to_plain((cfg.get("nominal_init") or {}).get("settings")) or {})
-    opts["bounds"] = {k: tuple(v) for k, v in (opts.get("bounds") or {}).items()}
-    return check_kwargs(opts, identify, "nominal_init.settings", reserved=("model", "records", "seed", "progress"))
+    block = OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"]
+    settings = {"fisher": False, "ode_method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps),
+                "backend": cfg.simulation.backend}
+    settings.update(to_plain((cfg.get("nominal_init") or {}).get("settings")) or {})
+    return identify_options(block, "nominal_init.settings", **settings)
 
 
 def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
