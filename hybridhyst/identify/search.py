@@ -92,29 +92,40 @@ def _finish(box: Box, U: np.ndarray, costs: np.ndarray, history, evals, gens, ba
 
 
 class _Scorer:
-    """Scores unit-cube batches ``U (N, D)`` through ``safe_costs``, one objective call per batch.
+    """Scores batches through ``safe_costs``, one objective call per batch: unit-cube points ``U (N, D)``
+    (``__call__``, the population searches) or coordinates ``X (N, D)`` (``coords``, the sampling searches).
 
-    Counts rows (``evaluations``), batches and non-finite members, keeps the best member seen and the
-    best-so-far ``history`` (one entry per batch), and advances the progress bar by one per batch.
+    Counts rows (``evaluations``), batches and non-finite members, keeps the best cost seen (and, for
+    unit-cube batches, its point ``best_u``) and the best-so-far ``history`` (one entry per batch), and
+    advances the progress bar by one per batch (by one per row with ``rows=True``).
     """
 
-    def __init__(self, objective: Objective, box: Box, bar):
-        self.objective, self.box, self.bar = objective, box, bar
+    def __init__(self, objective: Objective, box: Box, bar, rows: bool = False):
+        self.objective, self.box, self.bar, self.rows = objective, box, bar, rows
         self.evaluations = self.batches = self.non_finite = 0
         self.best, self.best_u, self.history = math.inf, None, []
 
+    def coords(self, X: torch.Tensor) -> tuple[torch.Tensor, int | None]:
+        """Costs ``(N,)`` of coordinates ``X``, and the row that improved on the best so far (None if none)."""
+        c = safe_costs(self.objective, X)
+        first = self.batches == 0
+        self.evaluations, self.batches = self.evaluations + X.shape[0], self.batches + 1
+        self.non_finite += int(torch.isinf(c).sum())
+        i = int(torch.argmin(c))
+        improved = first or float(c[i]) < self.best
+        if improved:
+            self.best = float(c[i])
+        self.history.append(self.best)
+        self.bar.update(X.shape[0] if self.rows else 1)
+        self.bar.set_postfix(cost=f"{self.best:.4g}")
+        return c, (i if improved else None)
+
     def __call__(self, U: np.ndarray) -> np.ndarray:
         U = np.asarray(U, dtype=np.float64)  # the searches keep members in the box (reflection, scipy, cma)
-        costs = safe_costs(self.objective, self.box.from_unit(torch.as_tensor(U))).numpy()
-        self.evaluations, self.batches = self.evaluations + len(U), self.batches + 1
-        self.non_finite += int(np.isinf(costs).sum())
-        i = int(np.argmin(costs))
-        if costs[i] < self.best or self.best_u is None:
-            self.best, self.best_u = float(costs[i]), U[i].copy()
-        self.history.append(self.best)
-        self.bar.update(1)
-        self.bar.set_postfix(cost=f"{self.best:.4g}")
-        return costs
+        costs, i = self.coords(self.box.from_unit(torch.as_tensor(U)))
+        if i is not None:
+            self.best_u = U[i].copy()
+        return costs.numpy()
 
     def reached(self, target: float | None) -> bool:
         return target is not None and self.best <= target
@@ -287,18 +298,14 @@ class _Best:
 
 def _batched(objective, box: Box, batches, total: int, desc: str, keep: int, target, progress) -> SearchResult:
     """Score coordinate batches in turn, keeping the best ``keep``; stop at ``target``."""
-    best, history, evals, bad, n = _Best(keep, box.dim), [], 0, 0, 0
+    best = _Best(keep, box.dim)
     with progress_bar(total=total, desc=desc, enabled=progress) as bar:
+        score = _Scorer(objective, box, bar, rows=True)
         for X in batches:
-            c = safe_costs(objective, X)
-            best.add(X, c)
-            evals, bad, n = evals + X.shape[0], bad + int(torch.isinf(c).sum()), n + 1
-            history.append(float(best.c[0]))
-            bar.update(X.shape[0])
-            bar.set_postfix(cost=f"{history[-1]:.4g}")
-            if target is not None and history[-1] <= target:
+            best.add(X, score.coords(X)[0])
+            if score.reached(target):
                 break
-    return best.result(history, evals, n, bad)
+    return best.result(score.history, score.evaluations, score.batches, score.non_finite)
 
 
 def monte_carlo(objective: Objective, space, *, samples: int = 1024, batch: int = 256, seed: int = 0,
