@@ -235,18 +235,48 @@ def test_levenberg_marquardt_moves_only_free_coordinates():
 
 
 def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
-    """A slope at 0 is searched within ± factor · |intercept| / max |condition| (not (-1, 1), which would miss
-    a parameter doubling over 0.01 ... 0.09 MPa: slope ~ 84 for c = 6.7)."""
+    """A slope at 0 is searched within ± factor · |intercept| / (range of the condition in the data), not
+    (-1, 1), which would miss a parameter doubling over 0.01 ... 0.09 MPa (slope ~ 84 for c = 6.7); the
+    intercept's box lets the line pivot about the data."""
     from hybridhyst.identify.space import SearchSpace
     from hybridhyst.physics.compositions import vpptd_algebraic
 
     model = vpptd_algebraic(c={"kind": "linear", "slope": 0.0, "intercept": 6.7, "condition": "pressure_mpa"}).double()
     plain = {c.name: (c.lower, c.upper) for c in SearchSpace(model).coordinates}
-    scaled = {c.name: (c.lower, c.upper) for c in SearchSpace(model, condition_scales={"pressure_mpa": 0.09})
+    scaled = {c.name: (c.lower, c.upper) for c in SearchSpace(model, condition_ranges={"pressure_mpa": (0.01, 0.09)})
               .coordinates}
     assert plain["viscous.c.c1"] == (-1.0, 1.0)
-    assert scaled["viscous.c.c1"] == pytest.approx((-10 * 6.7 / 0.09, 10 * 6.7 / 0.09))
-    assert scaled["viscous.c.c0"] == plain["viscous.c.c0"]  # the constant term keeps the general rule
+    half = 10 * 6.7 / 0.08
+    assert scaled["viscous.c.c1"] == pytest.approx((-half, half))
+    assert scaled["viscous.c.c0"] == pytest.approx((6.7 - 67 - half * 0.09, 6.7 + 67 + half * 0.09))
+
+
+def test_a_trend_box_holds_a_steep_line_far_from_zero(float64):
+    """Conditions far from 0 (band tension 30 ... 36 lb): a parameter that grows five-fold across the data is
+    ``v + 2/3 v (T - 30)``, slope 2/3 v and intercept -19 v. A box sized by the largest |condition| (± 10 v / 36)
+    or the general rule for the intercept ((v / 10, 10 v), positive) misses it; the one rule of identification
+    and discovery (``trend_scale``) holds it, and the discovery loop's condition candidate gets the same box."""
+    from hybridhyst.discover.candidates import condition_candidates
+    from hybridhyst.discover.fitting import _space
+    from hybridhyst.identify.space import SearchSpace, condition_ranges
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    v = 2.0
+    line = {"kind": "linear", "slope": 0.0, "intercept": v, "condition": "tension_lb"}
+    model = vpptd_algebraic(c=line).double()
+    recs = [Record(f"r{T}", np.linspace(0, 1, 5), np.zeros(5), np.zeros(5), {"tension_lb": T}) for T in (30, 33, 36)]
+    assert condition_ranges(recs) == {"tension_lb": (30.0, 36.0)}
+    box = {c.name: (c.lower, c.upper) for c in SearchSpace(model, condition_ranges=condition_ranges(recs)).coordinates}
+    lo, hi = box["viscous.c.c1"]
+    assert lo < -2 / 3 * v and 2 / 3 * v < hi
+    lo, hi = box["viscous.c.c0"]
+    assert lo < -19 * v < hi
+    # the discovery loop's candidate making a constant c a line in tension gets the same boxes
+    const = vpptd_algebraic(c=v).double()
+    cand = next(c for c in condition_candidates(const, {"tension_lb": [30, 33, 36]}) if c.name == "viscous.c~tension_lb")
+    found = {c.name: (c.lower, c.upper) for c in _space(cand.build(const), recs, bounds=cand.bounds).coordinates}
+    assert found["viscous.c.c1"] == pytest.approx(box["viscous.c.c1"])
+    assert found["viscous.c.c0"] == pytest.approx(box["viscous.c.c0"])
 
 
 _KIND_CONFIGS = {  # every parameter-function kind, placed on parameters with different constraints
@@ -286,7 +316,7 @@ def test_search_space_values_equal_the_models_own_evaluation(kind, where, float6
             torch.nn.init.normal_(p, std=0.7)
     cond = {"pressure_mpa": torch.tensor([0.01, 0.09, 0.05, 0.01, 0.05])}
     R = 5
-    space = SearchSpace(model, condition_scales={"pressure_mpa": 0.09})
+    space = SearchSpace(model, condition_ranges={"pressure_mpa": (0.01, 0.09)})
     x0 = space.initial()
     want = model.evaluate(cond, R)
     partial = SearchSpace(model, free=space.names[::2])  # the others held at their values

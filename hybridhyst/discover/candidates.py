@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..identify.space import trend_scale
 from ..physics.effects import EFFECTS, Effect
 from ..physics.models import DrivenOscillator
 from ..physics.parameters import Constant, Linear
@@ -160,20 +161,22 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
 
 def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> list[Candidate]:
     """One candidate per (constant, free parameter) × (numeric condition with at least two training values):
-    the parameter becomes ``intercept + slope · condition``, starting at slope 0 (the fitted model)."""
+    the parameter becomes ``intercept + slope · condition``, starting at slope 0 (the fitted model). Its
+    search box is identification's rule for a trend not yet known (``identify.space.trend_scale``)."""
     out = []
     for cond, values in conditions.items():
         values = sorted({float(v) for v in values})
         if len(values) < 2:
             continue
-        span = values[-1] - values[0]
         mid = 0.5 * (values[0] + values[-1])
         for key, effect in model.effects.items():
             for pname, fn in effect.params.items():
                 if not isinstance(fn, Constant):
                     continue
                 v = float(fn.value.detach())
-                width = max(abs(v), 1e-12)
+                slope = trend_scale(v, 1, values[0], values[-1])
+                if slope is None:  # a parameter at 0 has no size to scale a trend by
+                    continue
                 name = f"{key}.{pname}~{cond}"
 
                 def build(m, key=key, pname=pname, cond=cond, v=v):
@@ -183,12 +186,9 @@ def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> li
                     return new
 
                 c0, c1 = f"{key}.{pname}.c0", f"{key}.{pname}.c1"
-                slope = width / max(span, 1e-12)
-                reach = 10 * width + 10 * slope * max(abs(values[0]), abs(values[-1]))
-                bounds = {c0: (v - reach, v + reach), c1: (-10 * slope, 10 * slope)}
                 # start with the value at the centre of the training conditions unchanged
                 starts = [{c0: v - s * slope * mid, c1: s * slope} for s in (-0.3, 0.3)]
-                out.append(Candidate(name=name, kind="condition", build_fn=build, free=[c0, c1], bounds=bounds,
+                out.append(Candidate(name=name, kind="condition", build_fn=build, free=[c0, c1], bounds={},
                                      starts=starts, describe=f"{key}.{pname} as a linear function of {cond}",
                                      meta={"key": key, "param": pname, "condition": cond, "centre": mid}))
     return out

@@ -12,7 +12,7 @@ import torch
 
 from ..identify.identify import RecordsProblem
 from ..identify.refine import levenberg_marquardt
-from ..identify.space import SearchSpace
+from ..identify.space import SearchSpace, condition_ranges
 
 __all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "sse_at"]
 
@@ -40,6 +40,11 @@ def _problem(space, train, sim, substeps):
     return RecordsProblem(space, train, method=sim["method"], substeps=substeps, backend=sim["backend"])
 
 
+def _space(model, train, **options) -> SearchSpace:
+    """The search space of ``model`` with trend boxes sized by the training records' conditions."""
+    return SearchSpace(model, condition_ranges=condition_ranges(train), **options)
+
+
 def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
     """SSE of each row of ``X (N, D)`` (inf where the simulation is not finite)."""
     with torch.no_grad():
@@ -52,7 +57,7 @@ def sse_at(fit: Fit, train, sim: dict, substeps: int) -> float:
     needed finer steps is compared with the current model at the same resolution."""
     if substeps == fit.substeps:
         return fit.sse
-    space = SearchSpace(fit.model)
+    space = _space(fit.model, train)
     x0 = space.initial().clamp(space.lower, space.upper)
     return float(_sse(_problem(space, train, sim, substeps), x0[None])[0])
 
@@ -108,7 +113,7 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     3. *Joint LM* from those rows, continued until converged; then the step-doubling check (``resolve``).
     """
     aug = candidate.build(model)
-    space = SearchSpace(aug, bounds=candidate.bounds, factor=box_factor)
+    space = _space(aug, train, bounds=candidate.bounds, factor=box_factor)
     problem = _problem(space, train, sim, sim["substeps"])
     x0 = space.initial().clamp(space.lower, space.upper)
     current = dict(zip(space.names, x0.tolist()))
@@ -135,7 +140,7 @@ def polish(model, train, sim, lm_steps: int, box_factor: float) -> Fit:
     """Refit the current model (every coordinate, LM from its values) so that its training error is
     converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
     for finishing the previous fit. The model is updated in place."""
-    space = SearchSpace(model, factor=box_factor)
+    space = _space(model, train, factor=box_factor)
     problem = _problem(space, train, sim, sim["substeps"])
     x0 = space.initial().clamp(space.lower, space.upper)
     sse0 = float(_sse(problem, x0[None])[0])

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import torch
 from torch import nn
 
-from ..data.batch import numeric_conditions, record_batches
+from ..data.batch import record_batches
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
 from ..simulate import simulate
@@ -25,7 +25,7 @@ from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .refine import levenberg_marquardt
 from .refine import refine as refine_rows
 from .search import cma_es, differential_evolution, grid_search, monte_carlo, safe_costs
-from .space import SearchSpace
+from .space import SearchSpace, condition_ranges
 
 __all__ = ["IdentificationResult", "RecordsProblem", "identify"]
 
@@ -270,8 +270,7 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
               ode_method, substeps, search_decimate, backend) -> IdentificationResult:
     start = time.perf_counter()
     records = _records(records)
-    scales = {k: float(v.abs().max()) for k, v in numeric_conditions(records).items()}  # trend boxes
-    space = SearchSpace(model, bounds, factor=box_factor, condition_scales=scales)
+    space = SearchSpace(model, bounds, factor=box_factor, condition_ranges=condition_ranges(records))
     problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
     coarse = problem
     if int(search_decimate) != 1:

@@ -19,9 +19,14 @@ replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parame
 per-condition levels; function coefficients have other units, so only the box applies). Coordinates of
 unknown sign (network weights) get ``(-10 |v|, 10 |v|)`` instead. User overrides
 ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
-strictly positive and spans more than a factor 3 are searched on a log scale. A polynomial's higher
-coefficient that starts at 0 (a trend in a condition not yet known) gets ``± factor · |c0| / s^i`` instead of
-(-1, 1), with s the largest |condition| in the data (``condition_scales``, which ``identify`` passes).
+strictly positive and spans more than a factor 3 are searched on a log scale.
+
+Trends not yet known (``trend_scale``, the one rule of identification and the discovery loop): a polynomial
+whose higher coefficients all start at 0 gets, for each coefficient of c^i, ``± factor · |c0| / Δ_i`` instead
+of (-1, 1), where Δ_i is how much c^i changes over the data's range of the condition (``condition_ranges``,
+from the records): a coefficient at the edge changes the parameter by ``factor`` × its value across the
+data. Its constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)``, so that the value at the
+data's conditions can stay put while the trend moves (the intercept of a steep line lies far from the value).
 """
 
 from __future__ import annotations
@@ -33,9 +38,10 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from ..data.batch import numeric_conditions
 from ..physics.parameters import FunctionCoordinate, ParameterFunction, ParameterSpec, render_unit
 
-__all__ = ["Box", "Coordinate", "SearchSpace"]
+__all__ = ["Box", "Coordinate", "SearchSpace", "condition_ranges", "trend_scale"]
 
 
 @dataclass(frozen=True)
@@ -120,18 +126,43 @@ def _box(v: float, factor: float, signed: bool = False) -> tuple[float, float]:
     return -1.0, 1.0
 
 
-def _trend_box(co: FunctionCoordinate, condition: str | None, factor: float,
-               condition_scales) -> tuple[float, float] | None:
-    """The box of a polynomial's higher coefficient that starts at 0 (a trend not yet known): a term that
-    changes the parameter by up to ``factor`` × its constant term over the condition's magnitude,
-    ``± factor · |c0| / s^i`` with s = max |condition| in the data; None (the general rule) otherwise."""
-    if not (co.power and co.value == 0.0 and condition_scales):
+def condition_ranges(records) -> dict[str, tuple[float, float]]:
+    """``{condition: (lowest, highest)}`` over ``records`` for every numeric condition (the trend boxes)."""
+    return {k: (float(v.min()), float(v.max())) for k, v in numeric_conditions(records).items()}
+
+
+def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
+    """The natural size of the coefficient of c^``power`` in a parameter of size |``value``| whose condition
+    spans ``[lo, hi]`` in the data: ``|value| / Δ``, with Δ the change of c^power over the range (over its
+    magnitude where the data hold one level only); a coefficient this size changes the parameter by its own
+    value across the data. None where that is not defined (a value or a range of 0)."""
+    ends = [lo**power, hi**power] + ([0.0] if lo < 0.0 < hi else [])
+    span = (max(ends) - min(ends)) or max(abs(lo), abs(hi)) ** power
+    if value == 0.0 or span == 0.0:
         return None
-    scale = condition_scales.get(condition)
-    if not scale or co.magnitude == 0.0:
-        return None
-    half = factor * co.magnitude / float(scale) ** co.power
-    return -half, half
+    return abs(value) / span
+
+
+def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float,
+                 ranges) -> dict[int, tuple[float, float]]:
+    """``{position: box}`` for a polynomial whose higher coefficients all start at 0 (a trend not yet
+    known; module docstring), {} otherwise."""
+    powers = [co.power for co in declared]
+    rng = (ranges or {}).get(condition)
+    if rng is None or not any(powers) or any(co.value != 0.0 for co in declared if co.power):
+        return {}
+    c0 = next((co for co in declared if not co.power), None)
+    halves = {}
+    for i, co in enumerate(declared):
+        scale = trend_scale(co.magnitude, co.power, *rng) if co.power else None
+        if scale is not None:
+            halves[i] = factor * scale
+    boxes = {i: (-h, h) for i, h in halves.items()}
+    if c0 is not None and halves:
+        reach = factor * abs(c0.value) + sum(h * max(abs(rng[0]), abs(rng[1])) ** declared[i].power
+                                             for i, h in halves.items())
+        boxes[powers.index(0)] = (c0.value - reach, c0.value + reach)
+    return boxes
 
 
 def _coordinates(fn: ParameterFunction, key: str, pname: str) -> list[FunctionCoordinate]:
@@ -151,10 +182,13 @@ class SearchSpace(Box):
     factor : width of the default box, ``(v / factor, v · factor)``.
     free : names of the coordinates to search (default: all); the others are held at their current
         values (e.g. the discovery loop fitting only a newly added effect).
+    condition_ranges : ``{condition: (lowest, highest)}`` in the data (``condition_ranges(records)``): sizes
+        the boxes of trends not yet known (module docstring); without it they get the general rule.
     """
 
     def __init__(self, model: nn.Module, bounds: Mapping[str, tuple[float, float]] | None = None,
-                 factor: float = 10.0, free=None, condition_scales: Mapping[str, float] | None = None):
+                 factor: float = 10.0, free=None,
+                 condition_ranges: Mapping[str, tuple[float, float]] | None = None):
         self.model = model
         self.functions = {(k, n): fn for k, e in model.effects.items() for n, fn in e.params.items()}
         specs = {(k, n): e.param_specs[n] for k, e in model.effects.items() for n in e.params}
@@ -166,11 +200,12 @@ class SearchSpace(Box):
         for (key, pname), fn in self.functions.items():
             declared = _coordinates(fn, key, pname)
             self.sizes[(key, pname)] = len(declared)
+            trends = _trend_boxes(declared, getattr(fn, "condition", None), factor, condition_ranges)
             for position, co in enumerate(declared):
                 name = f"{key}.{pname}{co.suffix}"
                 override = bounds.pop(name, None)
                 if override is None:
-                    override = _trend_box(co, fn.condition, factor, condition_scales)
+                    override = trends.get(position)
                 spec = specs[(key, pname)] if co.own else None
                 lo, hi = self._bounds(co.value, spec, factor, override, co.signed)
                 unit = "" if spec is None else (model.effects[key].param_unit(pname, model.units)
