@@ -57,7 +57,9 @@ class ParameterFunction(nn.Module):
     ``set_coordinates`` writes them back (through the constraint's ``right_inverse``), and
     ``evaluate_batch(coords (P, k), conditions, batch) -> (P, batch)`` evaluates P coordinate vectors at
     once. ``forward`` is ``evaluate_batch`` at the function's own coordinates, so both use one formula.
-    Subclasses list the tensors holding the coordinates in ``_attrs`` (in coordinate order).
+    Subclasses list the tensors holding the coordinates in ``_attrs`` (in coordinate order) and describe
+    each element in ``_coordinate`` (its name suffix and box hints); ``coordinates()`` reads the values from
+    those tensors, so the coordinates are listed once.
     """
 
     condition: str | None = None
@@ -73,12 +75,20 @@ class ParameterFunction(nn.Module):
         raise NotImplementedError(f"{type(self).__name__} does not implement evaluate_batch")
 
     def coordinates(self) -> list[FunctionCoordinate]:
-        """The free scalars, in the order of ``coordinate_values``."""
-        raise NotImplementedError(
-            f"{type(self).__name__} does not declare its coordinates; implement coordinates(), _attrs and "
-            "evaluate_batch() (see ParameterFunction), or use a constant, fixed, polynomial/linear, exponential, "
-            "per-condition or neural function"
-        )
+        """The free scalars, in the order of ``coordinate_values``: one per element of the tensors named in
+        ``_attrs`` (``_coordinate_tensors``), each described by the subclass's ``_coordinate``."""
+        if type(self)._coordinate is ParameterFunction._coordinate:
+            raise NotImplementedError(
+                f"{type(self).__name__} does not declare its coordinates; implement _coordinate(), _attrs and "
+                "evaluate_batch() (see ParameterFunction), or use a constant, fixed, polynomial/linear, "
+                "exponential, per-condition or neural function"
+            )
+        return [self._coordinate(path, i, v) for path, t in self._coordinate_tensors()
+                for i, v in enumerate(t.detach().reshape(-1).tolist())]
+
+    def _coordinate(self, path: str, index: int, value: float) -> FunctionCoordinate:
+        """The description of element ``index`` (value ``value``) of the coordinate tensor ``path``."""
+        raise NotImplementedError
 
     def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
         return [(a, getattr(self, a)) for a in self._attrs]

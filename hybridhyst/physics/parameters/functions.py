@@ -41,8 +41,8 @@ class Constant(ParameterFunction):
         self.value = nn.Parameter(torch.tensor(float(value), dtype=torch.get_default_dtype()))
         _constrain(self, "value", spec)
 
-    def coordinates(self) -> list[FunctionCoordinate]:
-        return [FunctionCoordinate("", float(self.value.detach()), own=True)]
+    def _coordinate(self, path, index, value):
+        return FunctionCoordinate("", value, own=True)
 
     def evaluate_batch(self, coords, conditions, batch):
         return coords[:, :1].expand(coords.shape[0], batch)
@@ -80,9 +80,8 @@ class Polynomial(ParameterFunction):
         self.condition = condition
         self.coeffs = nn.Parameter(torch.tensor([float(c) for c in coeffs], dtype=torch.get_default_dtype()))
 
-    def coordinates(self) -> list[FunctionCoordinate]:
-        coeffs = self.coeffs.detach().tolist()
-        return [FunctionCoordinate(f".c{i}", a, power=i, magnitude=abs(coeffs[0])) for i, a in enumerate(coeffs)]
+    def _coordinate(self, path, index, value):
+        return FunctionCoordinate(f".c{index}", value, power=index, magnitude=abs(float(self.coeffs[0].detach())))
 
     def evaluate_batch(self, coords, conditions, batch):
         c = self._c(conditions, batch, coords)
@@ -113,8 +112,8 @@ class _Exponential(ParameterFunction):
         self.a = nn.Parameter(torch.tensor(float(a), dtype=dtype))
         self.b = nn.Parameter(torch.tensor(float(b), dtype=dtype))
 
-    def coordinates(self) -> list[FunctionCoordinate]:
-        return [FunctionCoordinate(f".{k}", float(getattr(self, k).detach())) for k in self._attrs]
+    def _coordinate(self, path, index, value):
+        return FunctionCoordinate(f".{path}", value)
 
     @staticmethod
     def _shape(bc: torch.Tensor) -> torch.Tensor:
@@ -189,9 +188,8 @@ class PerCondition(ParameterFunction):
         """The value at each level ``(L,)`` (constrained)."""
         return self.level_values
 
-    def coordinates(self) -> list[FunctionCoordinate]:
-        pairs = zip(self.levels.tolist(), self.level_values.detach().tolist())
-        return [FunctionCoordinate(f"[{self.condition}={lv:g}]", v, own=True) for lv, v in pairs]
+    def _coordinate(self, path, index, value):
+        return FunctionCoordinate(f"[{self.condition}={float(self.levels[index]):g}]", value, own=True)
 
     def evaluate_batch(self, coords, conditions, batch):
         c = self._c(conditions, batch, coords)[0]
@@ -234,12 +232,10 @@ class NeuralFunction(ParameterFunction):
     def _coordinate_tensors(self) -> list[tuple[str, torch.Tensor]]:
         return [("base", self.base), *((f"net.{n}", p) for n, p in self.net.named_parameters())]
 
-    def coordinates(self) -> list[FunctionCoordinate]:
-        out = [FunctionCoordinate(".base", float(self.base.detach()))]
-        for name, p in self.net.named_parameters():
-            out += [FunctionCoordinate(f".net.{name}[{i}]", w, signed=True)
-                    for i, w in enumerate(p.detach().reshape(-1).tolist())]
-        return out
+    def _coordinate(self, path, index, value):
+        if path == "base":
+            return FunctionCoordinate(".base", value)
+        return FunctionCoordinate(f".{path}[{index}]", value, signed=True)
 
     def forward(self, conditions, batch):
         c = _condition_tensor(conditions, self.condition, self.base).expand(batch)
