@@ -190,6 +190,9 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
     with torch_settings("float64", cfg.get("threads"), int(cfg.seed)), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*does not have many workers.*")
         warnings.filterwarnings("ignore", message=".*litlogger.*")
+        # a new run clears its checkpoints (_clear): the folder holds some only when resuming or in the L-BFGS
+        # stage, which continues the Adam stage's best.ckpt on purpose
+        warnings.filterwarnings("ignore", message="Checkpoint directory .* exists and is not empty")
         L.seed_everything(int(cfg.seed), workers=True, verbose=False)
         dm = build_datamodule(cfg)
         module = build_module(cfg, dm)  # identifies the nominal (nominal_init) unless resuming
