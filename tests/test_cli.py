@@ -179,7 +179,7 @@ KEY_CASES = [
     ("fit", "split.select", ["~split.held_out", "+split.held_ot=[{amplitude_in: [1.0]}]"],
      ["split.held_out", "split.held_ot"]),
     ("identify", "split.select", ["~noise_sd", "+noise_sdd=0.1"], ["noise_sd", "noise_sdd"]),
-    ("identify", "identify.pop", ["~identify.lm_steps", "+identify.lm_step=5"], ["identify.lm_steps", "identify.lm_step"]),
+    ("identify", "identify.pop", ["~identify.lm_steps", "+identify.lmsteps=5"], ["identify.lm_steps", "identify.lmsteps"]),
     ("train", "split.val", ["~datamodule.window", "+datamodule.windw=64"], ["datamodule.windw", "datamodule.window"]),
     ("discover", "thinning.downsample", ["~discover.margin", "+discover.margn=0.05"],
      ["discover.margin", "discover.margn"]),

@@ -251,6 +251,34 @@ def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
     assert scaled["viscous.c.c0"] == pytest.approx((6.7 - 67 - half * 0.09, 6.7 + 67 + half * 0.09))
 
 
+@pytest.mark.parametrize("power,lo,hi,span", [(1, 0.01, 0.09, 0.08), (2, -1.0, 2.0, 4.0), (2, -3.0, -1.0, 8.0),
+                                               (3, -1.0, 2.0, 9.0), (1, 5.0, 5.0, 5.0)])
+def test_trend_scale_is_the_value_over_the_change_of_the_power_across_the_data(power, lo, hi, span):
+    """Δ = max − min of c^power over [lo, hi] (0 included when the range straddles it); one level: |c|^power."""
+    from hybridhyst.identify.space import trend_scale
+
+    assert trend_scale(-3.0, power, lo, hi) == pytest.approx(3.0 / span)
+    assert trend_scale(0.0, power, lo, hi) is None and trend_scale(1.0, 1, 0.0, 0.0) is None
+
+
+def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
+    """A coefficient at 0 beside a known one gets the trend box, the constant term keeps the general rule; a
+    user's box for the slope widens the intercept's reach with it."""
+    from hybridhyst.identify.space import SearchSpace
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    ranges = {"pressure_mpa": (0.01, 0.09)}
+    quad = vpptd_algebraic(c={"kind": "polynomial", "coeffs": [6.7, 20.0, 0.0], "condition": "pressure_mpa"}).double()
+    box = {c.name: (c.lower, c.upper) for c in SearchSpace(quad, condition_ranges=ranges).coordinates}
+    assert box["viscous.c.c2"] == pytest.approx((-10 * 6.7 / (0.09**2 - 0.01**2), 10 * 6.7 / (0.09**2 - 0.01**2)))
+    assert box["viscous.c.c0"] == pytest.approx((0.67, 67.0)) and box["viscous.c.c1"] == pytest.approx((2.0, 200.0))
+    line = vpptd_algebraic(c={"kind": "linear", "slope": 0.0, "intercept": 6.7, "condition": "pressure_mpa"}).double()
+    wide = {c.name: (c.lower, c.upper)
+            for c in SearchSpace(line, {"viscous.c.c1": (-5000.0, 5000.0)}, condition_ranges=ranges).coordinates}
+    assert wide["viscous.c.c1"] == (-5000.0, 5000.0)
+    assert wide["viscous.c.c0"] == pytest.approx((6.7 - 67 - 5000 * 0.09, 6.7 + 67 + 5000 * 0.09))
+
+
 def test_a_trend_box_holds_a_steep_line_far_from_zero(float64):
     """Conditions far from 0 (band tension 30 ... 36 lb): a parameter that grows five-fold across the data is
     ``v + 2/3 v (T - 30)``, slope 2/3 v and intercept -19 v. A box sized by the largest |condition| (± 10 v / 36)

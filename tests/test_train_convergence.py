@@ -80,6 +80,22 @@ def test_the_nominal_starts_from_an_identified_fit_by_default(loops, tmp_path):
         _start_rmse(_compose(loops, tmp_path, "nominal_init.settings={generation: 3}"))
 
 
+def test_nominal_init_settings_lie_over_the_identify_defaults_and_the_simulation(loops, tmp_path):
+    """identify() arguments of the nominal's start: conf/identify.yaml's block, no Fisher analysis and the
+    training simulation, then nominal_init.settings over them all; a key named like a helper argument is the
+    same one-line error as any unknown key."""
+    opts = train._identify_settings(_compose(loops, tmp_path, "simulation.substeps=3"))
+    assert opts["fisher"] is False and opts["substeps"] == 3 and opts["pop"] == 32 and opts["bounds"] == {}
+    opts = train._identify_settings(_compose(loops, tmp_path, "simulation.substeps=3",
+                                             "nominal_init.settings={pop: 8, substeps: 2, fisher: true, "
+                                             "bounds: {viscous.c: [0.1, 2]}}"))
+    assert (opts["pop"], opts["substeps"], opts["fisher"]) == (8, 2, True)
+    assert opts["bounds"] == {"viscous.c": (0.1, 2)} and isinstance(opts["bounds"]["viscous.c"], tuple)
+    for key in ("where", "block"):
+        with pytest.raises(ValueError, match=f"unknown config key nominal_init.settings.{key}"):
+            train._identify_settings(_compose(loops, tmp_path, f"nominal_init.settings={{{key}: 3}}"))
+
+
 def test_a_run_never_ends_worse_on_validation_than_its_start_also_after_a_resume(loops, tmp_path):
     bad = ["module=hybrid", "trainer.lr=10", "trainer.nominal_lr=10", "trainer.max_epochs=2"]
     result = train.run(_compose(loops, tmp_path / "a", *bad))

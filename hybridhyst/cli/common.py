@@ -57,21 +57,20 @@ __all__ = [
 ]
 
 
-def identify_options(block, where: str, **settings) -> dict:
+def identify_options(block, where: str, reserved: tuple[str, ...] = (), /, **settings) -> dict:
     """``identify()`` keyword arguments from a config block of conf/identify.yaml's ``identify:`` keys with
     ``settings`` laid over it (the one conversion of ``hybridhyst-identify`` and of ``hybridhyst-train``'s
     ``nominal_init``): every key of conf/identify.yaml's block is read by item access (a deleted one is a
-    config error naming it), ``bounds`` become tuples, and a key ``identify()`` does not take is a one-line
-    error naming ``where``."""
+    config error naming it), values become plain Python (``bounds``: tuples), and a key ``identify()`` does
+    not take, or one the app passes itself (``reserved``), is a one-line error naming ``where``."""
     from ..identify import identify
 
     defaults = OmegaConf.load(os.path.join(CONF_DIR, "identify.yaml"))["identify"]
-    opts = {key: block[key] for key in defaults}
-    opts.update({k: block[k] for k in block if k not in opts})
-    opts = to_plain(opts)
+    keys = [*defaults, *(k for k in block if k not in defaults)]
+    opts = {key: to_plain(block[key]) for key in keys}
     opts.update(settings)
     opts["bounds"] = {k: tuple(v) for k, v in (opts.get("bounds") or {}).items()}
-    return check_kwargs(opts, identify, where, reserved=("model", "records", "seed", "progress"))
+    return check_kwargs(opts, identify, where, reserved=("model", "records", "seed", "progress", *reserved))
 
 
 def check_app(cfg: DictConfig, app: str) -> None:

@@ -55,9 +55,9 @@ def _load(cfg) -> RecordSet:
 
 
 def _identify(model, records, cfg):
-    noise = float(cfg.noise_sd or 0.0)
-    opts = identify_options(cfg.identify, "identify", noise_sd=noise or None)
-    return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), **opts)
+    noise = float(cfg.noise_sd or 0.0)  # the top-level noise_sd (added to the records) is identify's too
+    opts = identify_options(cfg.identify, "identify", ("noise_sd",))
+    return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), noise_sd=noise or None, **opts)
 
 
 def _num(v) -> str:

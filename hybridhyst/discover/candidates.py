@@ -162,7 +162,8 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
 def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> list[Candidate]:
     """One candidate per (constant, free parameter) × (numeric condition with at least two training values):
     the parameter becomes ``intercept + slope · condition``, starting at slope 0 (the fitted model). Its
-    search box is identification's rule for a trend not yet known (``identify.space.trend_scale``)."""
+    search box is identification's rule for a trend not yet known (``identify.space.trend_scale``); a
+    parameter at exactly 0 has no size to scale it by and gets no candidate."""
     out = []
     for cond, values in conditions.items():
         values = sorted({float(v) for v in values})

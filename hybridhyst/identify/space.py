@@ -21,12 +21,13 @@ unknown sign (network weights) get ``(-10 |v|, 10 |v|)`` instead. User overrides
 ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
 strictly positive and spans more than a factor 3 are searched on a log scale.
 
-Trends not yet known (``trend_scale``, the one rule of identification and the discovery loop): a polynomial
-whose higher coefficients all start at 0 gets, for each coefficient of c^i, ``± factor · |c0| / Δ_i`` instead
-of (-1, 1), where Δ_i is how much c^i changes over the data's range of the condition (``condition_ranges``,
-from the records): a coefficient at the edge changes the parameter by ``factor`` × its value across the
-data. Its constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)``, so that the value at the
-data's conditions can stay put while the trend moves (the intercept of a steep line lies far from the value).
+Trends not yet known (``trend_scale``, the one rule of identification and the discovery loop): a polynomial's
+coefficient of c^i that starts at 0 gets ``± factor · |c0| / Δ_i`` instead of (-1, 1), where Δ_i is how much
+c^i changes over the data's range of the condition (``condition_ranges``, from the records): a coefficient at
+the edge changes the parameter by ``factor`` × its value across the data. When every higher coefficient starts
+at 0, the constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the half-width of
+c^i's box, the user's where given), so that the value at the data's conditions can stay put while the trend
+moves (the intercept of a steep line lies far from the value).
 """
 
 from __future__ import annotations
@@ -143,25 +144,26 @@ def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
     return abs(value) / span
 
 
-def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float,
-                 ranges) -> dict[int, tuple[float, float]]:
-    """``{position: box}`` for a polynomial whose higher coefficients all start at 0 (a trend not yet
-    known; module docstring), {} otherwise."""
-    powers = [co.power for co in declared]
+def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float, ranges,
+                 given: Mapping[int, tuple[float, float]]) -> dict[int, tuple[float, float]]:
+    """``{position: box}`` for the coefficients of a polynomial that start at 0 (trends not yet known; module
+    docstring) and, when every higher coefficient does, for its constant term, whose reach follows the
+    higher coefficients' boxes (``given``: the user's, where set); {} for other functions."""
     rng = (ranges or {}).get(condition)
-    if rng is None or not any(powers) or any(co.value != 0.0 for co in declared if co.power):
+    if rng is None or not any(co.power for co in declared):
         return {}
-    c0 = next((co for co in declared if not co.power), None)
-    halves = {}
+    boxes = {}
     for i, co in enumerate(declared):
-        scale = trend_scale(co.magnitude, co.power, *rng) if co.power else None
+        scale = trend_scale(co.magnitude, co.power, *rng) if co.power and co.value == 0.0 else None
         if scale is not None:
-            halves[i] = factor * scale
-    boxes = {i: (-h, h) for i, h in halves.items()}
-    if c0 is not None and halves:
-        reach = factor * abs(c0.value) + sum(h * max(abs(rng[0]), abs(rng[1])) ** declared[i].power
-                                             for i, h in halves.items())
-        boxes[powers.index(0)] = (c0.value - reach, c0.value + reach)
+            boxes[i] = (-factor * scale, factor * scale)
+    c0 = next((i for i, co in enumerate(declared) if not co.power), None)
+    if c0 is not None and boxes and all(co.value == 0.0 for co in declared if co.power):
+        top = max(abs(rng[0]), abs(rng[1]))
+        reach = factor * abs(declared[c0].value) + sum(
+            max(abs(b) for b in given.get(i, boxes.get(i, (0.0, 0.0)))) * top ** co.power
+            for i, co in enumerate(declared) if co.power)
+        boxes[c0] = (declared[c0].value - reach, declared[c0].value + reach)
     return boxes
 
 
@@ -200,7 +202,9 @@ class SearchSpace(Box):
         for (key, pname), fn in self.functions.items():
             declared = _coordinates(fn, key, pname)
             self.sizes[(key, pname)] = len(declared)
-            trends = _trend_boxes(declared, getattr(fn, "condition", None), factor, condition_ranges)
+            given = {i: bounds[f"{key}.{pname}{co.suffix}"] for i, co in enumerate(declared)
+                     if f"{key}.{pname}{co.suffix}" in bounds}
+            trends = _trend_boxes(declared, getattr(fn, "condition", None), factor, condition_ranges, given)
             for position, co in enumerate(declared):
                 name = f"{key}.{pname}{co.suffix}"
                 override = bounds.pop(name, None)
