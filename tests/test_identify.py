@@ -301,7 +301,8 @@ def test_a_trend_box_holds_a_steep_line_far_from_zero(float64):
     assert lo < -19 * v < hi
     # the discovery loop's candidate making a constant c a line in tension gets the same boxes
     const = vpptd_algebraic(c=v).double()
-    cand = next(c for c in condition_candidates(const, {"tension_lb": [30, 33, 36]}) if c.name == "viscous.c~tension_lb")
+    cands = condition_candidates(const, {"tension_lb": [30, 33, 36]})
+    cand = next(c for c in cands if c.name == "viscous.c~tension_lb")
     found = {c.name: (c.lower, c.upper) for c in _space(cand.build(const), recs, bounds=cand.bounds).coordinates}
     assert found["viscous.c.c1"] == pytest.approx(box["viscous.c.c1"])
     assert found["viscous.c.c0"] == pytest.approx(box["viscous.c.c0"])
