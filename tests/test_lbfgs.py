@@ -76,6 +76,7 @@ def test_the_stage_lowers_the_training_error_and_a_resumed_run_repeats_it(tmp_pa
     ("trainer.lbfgs.max_iter=0", "trainer.lbfgs needs"),
     ("trainer.lbfgs.steps=-1", "trainer.lbfgs needs"),
     ("+trainer.lbfgs.stepz=3", r"unknown trainer.lbfgs key\(s\) \['stepz'\]"),
+    ("~trainer.lbfgs.max_iter", "trainer.lbfgs.max_iter is missing"),
     ("trainer.strategy=ddp", "trainer.lbfgs runs in one process"),
 ])
 def test_bad_lbfgs_settings_are_one_line_errors(override, match, tmp_path):

@@ -150,19 +150,18 @@ def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, fact
     docstring) and, when every higher coefficient does, for its constant term, whose reach follows the
     higher coefficients' boxes (``given``: the user's, where set); {} for other functions."""
     rng = (ranges or {}).get(condition)
-    if rng is None or not any(co.power for co in declared):
+    c0 = next((i for i, co in enumerate(declared) if not co.power), None)
+    if rng is None or c0 is None or not any(co.power for co in declared):
         return {}
     boxes = {}
     for i, co in enumerate(declared):
-        scale = trend_scale(co.magnitude, co.power, *rng) if co.power and co.value == 0.0 else None
+        scale = trend_scale(declared[c0].value, co.power, *rng) if co.power and co.value == 0.0 else None
         if scale is not None:
             boxes[i] = (-factor * scale, factor * scale)
-    c0 = next((i for i, co in enumerate(declared) if not co.power), None)
-    if c0 is not None and boxes and all(co.value == 0.0 for co in declared if co.power):
+    if boxes and all(co.value == 0.0 for co in declared if co.power):  # every higher one has a box
         top = max(abs(rng[0]), abs(rng[1]))
-        reach = factor * abs(declared[c0].value) + sum(
-            max(abs(b) for b in given.get(i, boxes.get(i, (0.0, 0.0)))) * top ** co.power
-            for i, co in enumerate(declared) if co.power)
+        reach = factor * abs(declared[c0].value) + sum(max(abs(b) for b in given.get(i, box)) * top ** declared[i].power
+                                                       for i, box in boxes.items())
         boxes[c0] = (declared[c0].value - reach, declared[c0].value + reach)
     return boxes
 
@@ -202,11 +201,10 @@ class SearchSpace(Box):
         for (key, pname), fn in self.functions.items():
             declared = _coordinates(fn, key, pname)
             self.sizes[(key, pname)] = len(declared)
-            given = {i: bounds[f"{key}.{pname}{co.suffix}"] for i, co in enumerate(declared)
-                     if f"{key}.{pname}{co.suffix}" in bounds}
-            trends = _trend_boxes(declared, getattr(fn, "condition", None), factor, condition_ranges, given)
-            for position, co in enumerate(declared):
-                name = f"{key}.{pname}{co.suffix}"
+            names = [f"{key}.{pname}{co.suffix}" for co in declared]
+            given = {i: bounds[name] for i, name in enumerate(names) if name in bounds}
+            trends = _trend_boxes(declared, fn.condition, factor, condition_ranges, given)
+            for position, (co, name) in enumerate(zip(declared, names)):
                 override = bounds.pop(name, None)
                 if override is None:
                     override = trends.get(position)

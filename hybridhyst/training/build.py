@@ -119,23 +119,27 @@ def lbfgs_settings(cfg: DictConfig) -> dict | None:
     """``trainer.lbfgs`` checked: ``{"steps", "max_iter", "history_size", "check_val_every_n_epoch"}``, or None
     when the run has no L-BFGS stage (``steps: 0`` or no block)."""
     block = to_plain(cfg.trainer.get("lbfgs")) or {}
-    known = {"steps", "max_iter", "history_size", "check_val_every_n_epoch"}
-    unknown = sorted(set(block) - known)
+    known = ("steps", "max_iter", "history_size", "check_val_every_n_epoch")
+    unknown = sorted(set(block) - set(known))
     if unknown:
         raise ValueError(f"unknown trainer.lbfgs key(s) {unknown}; the keys are {sorted(known)}")
-    out = {"steps": int(block.get("steps") or 0), "max_iter": int(block.get("max_iter", 20)),
-           "history_size": int(block.get("history_size", 50)),
-           "check_val_every_n_epoch": int(block.get("check_val_every_n_epoch", 1))}
+    if not block.get("steps"):
+        return None
+    missing = [k for k in known if block.get(k) is None]  # the values are conf/trainer/default.yaml's
+    if missing:
+        raise ValueError(f"trainer.lbfgs.{missing[0]} is missing: the L-BFGS stage needs {list(known)} "
+                         "(see conf/trainer/default.yaml)")
+    out = {k: int(block[k]) for k in known}
     if out["steps"] < 0 or min(out["max_iter"], out["history_size"], out["check_val_every_n_epoch"]) < 1:
         raise ValueError(f"trainer.lbfgs needs steps >= 0 and max_iter, history_size, check_val_every_n_epoch >= 1, "
                          f"got {out}")
     t = cfg.trainer
     devices = t.get("devices", 1)
-    if out["steps"] and (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
-                         or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
+    if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
+            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
         raise ValueError("trainer.lbfgs runs in one process (its line search needs the whole batch's loss): "
                          "set trainer.lbfgs.steps=0 for a multi-device run")
-    return out if out["steps"] else None
+    return out
 
 
 def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), after: L.Trainer | None = None

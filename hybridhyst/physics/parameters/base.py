@@ -37,7 +37,6 @@ class FunctionCoordinate:
     own : a value of the parameter itself (constants, per-condition levels): the parameter's unit and
         ``ParameterSpec.bounds`` apply to it; coefficients have other units.
     power : the power of the condition the coordinate multiplies (polynomial coefficients), else 0.
-    magnitude : |constant term| of a polynomial, which sizes the box of a higher coefficient that starts at 0.
     signed : its sign is not known in advance (network weights): search it in a box symmetric about 0.
     """
 
@@ -45,7 +44,6 @@ class FunctionCoordinate:
     value: float
     own: bool = False
     power: int = 0
-    magnitude: float = 0.0
     signed: bool = False
 
 

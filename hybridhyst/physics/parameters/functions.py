@@ -81,7 +81,7 @@ class Polynomial(ParameterFunction):
         self.coeffs = nn.Parameter(torch.tensor([float(c) for c in coeffs], dtype=torch.get_default_dtype()))
 
     def _coordinate(self, path, index, value):
-        return FunctionCoordinate(f".c{index}", value, power=index, magnitude=abs(float(self.coeffs[0].detach())))
+        return FunctionCoordinate(f".c{index}", value, power=index)
 
     def evaluate_batch(self, coords, conditions, batch):
         c = self._c(conditions, batch, coords)
