@@ -225,7 +225,9 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
 
 @pytest.mark.parametrize("app,override,expected", [
     ("fit", "split.selct.tension_lb=30", "did you mean split.select?"),
-    ("fit", "split.held_out={amplitude_in: [0.5]}", "that key holds a list"),
+    ("fit", "split.held_out={amplitude_in: [0.5]}", "split.held_out holds a list: give one"),
+    ("discover", "split.select=[{tension_lb: 30}]",
+     "split.select holds a mapping; to give a list instead, delete the key first: '~split.select' '+split.select="),
     ("discover", "data=brfdd", "options of 'data': boucwen, brfd, table, vpptd"),
 ])
 def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expected, tmp_path):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 import sys
 from collections.abc import Callable
 
@@ -187,7 +188,7 @@ def _composition_message(exc: Exception) -> str:
     if cause is not None and hasattr(cause, "full_key"):
         message += f" ({' '.join(str(cause).splitlines()[0].split())})"
         if "Cannot merge DictConfig with ListConfig" in str(cause):
-            message += "; that key holds a list: give one, e.g. a mapping in brackets [{...}]"
+            message += _type_change_hint(text)
         parent, key = getattr(cause, "parent_node", None), getattr(cause, "key", None)
         siblings = [str(k) for k in parent.keys()] if parent is not None and hasattr(parent, "keys") else []
         close = difflib.get_close_matches(str(key), siblings, n=1, cutoff=0.6) if key is not None else []
@@ -196,6 +197,19 @@ def _composition_message(exc: Exception) -> str:
             prefix = full.rsplit(".", 1)[0] + "." if "." in full else ""
             message += f"; did you mean {prefix}{close[0]}?"
     return message
+
+
+def _type_change_hint(text: str) -> str:
+    """The hint for a list given where the config holds a mapping, or the other way round (OmegaConf's message
+    is the same both ways; the override's value says which): the form the key takes, and how to change it."""
+    found = re.search(r"override\s+([\w.]+)=\s*(\S)", text)
+    if found is None:
+        return "; a list was given where the config holds a mapping, or the other way round"
+    key, first = found.groups()
+    held, other = ("a mapping", "list") if first == "[" else ("a list", "mapping")
+    example = "[{...}]" if first == "[" else "{...}"
+    return (f"; {key} holds {held}" + (": give one, e.g. a mapping in brackets [{...}]" if held == "a list" else "")
+            + f"; to give a {other} instead, delete the key first: '~{key}' '+{key}={example}'")
 
 
 def hydra_entry(hydra_main: Callable[[], None]) -> None:
