@@ -45,9 +45,13 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
 
 def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64):
     res = discover(make_records(None, noise_sd=NOISE), base_model(None), candidates=FEW, split=SPLIT,
-                   conditions=True, noise_sd=NOISE, **FAST)
+                   conditions=True, noise_sd=NOISE, leftover="dynamics", **FAST)
     assert res.report["steps"] == [] and res.report["rejected"]  # the best candidate was tried and refused
     assert res.report["after"]["test_rmse"] <= 1.2 * NOISE
+    left = res.report["unexplained"]  # a network inside the dynamics finds nothing left either
+    assert left["residual_network"]["network"] == "dynamics" and left["residual_network"]["on"] == "val"
+    assert left["residual_network"]["explained_share"] < 0.1 and not left["structure_flagged"]
+    assert res.report["settings"]["leftover"] == "dynamics"
 
 
 def test_a_parameter_that_follows_a_condition_is_found(float64):
@@ -158,6 +162,8 @@ def test_bad_input_is_a_clear_error(float64):
     records = make_records(None, noise_sd=NOISE)
     with pytest.raises(ValueError, match="unknown candidate effect"):
         discover(records, base_model(None), candidates=["friction_of_doom"], split=SPLIT, **FAST)
+    with pytest.raises(ValueError, match=r"unknown leftover measure 'dynamic'; choose one of \['static', 'dynamics'\]"):
+        discover(records, base_model(None), split=SPLIT, leftover="dynamic", **FAST)
     with pytest.raises(ValueError, match="leaves no training records"):
         discover(records, base_model(None), split={"held_out": {"frequency_hz": [1.0, 1.5, 2.0]}}, **FAST)
     short = RecordSet([r.slice(stop=8) for r in records])
@@ -220,7 +226,7 @@ def test_trend_per_parameter_is_chosen_by_aicc_over_the_levels():
 
 
 def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network():
-    from hybridhyst.discover.loop import structure_flagged
+    from hybridhyst.discover.leftover import structure_flagged
 
     assert structure_flagged({"explained_share": 0.0}, train_rmse=0.3, noise_sd=0.2)
     assert not structure_flagged({"explained_share": 0.9}, train_rmse=0.21, noise_sd=0.2)

@@ -26,7 +26,6 @@ from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
-from ..nets import MLP
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
 from ..simulate import simulate
@@ -34,6 +33,7 @@ from .candidates import Scales, library_candidates
 from .diagnose import diagnose
 from .fitting import at as _at
 from .fitting import fit_candidate, polish, sse_at
+from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
 
@@ -120,7 +120,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              margin: float = 0.02, criterion: str = "bic", max_steps: int = 4,
              top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
-             method: str = "rk4", substeps: int = 1, refit: bool = True,
+             method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
              progress: bool = True) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
@@ -147,6 +147,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         winner on all the data it may use). The validation RMSEs reported stay those of the training-only
         fits, measured before the refit (out of sample); test and training errors, parameters and
         predictions are the refitted models'. ``report["refit"]`` keeps the numbers without the refit.
+    leftover : how the structure left is measured (``leftover.py``): "static", a small network of the
+        kinematics fitted to the final residual point by point (seconds); "dynamics", a network with a latent
+        state fitted *inside* the final model's equations through the simulator (a memory a pointwise
+        correction cannot have; tens of seconds on the bundled BRFD, more on long records). Either's share of
+        the residual recovered on validation records is reported and sets the flag when no noise level is known.
 
     Raises
     ------
@@ -156,6 +161,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     start = time.perf_counter()
     if criterion not in ("bic", "aic"):
         raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")
+    if leftover not in LEFTOVER:
+        raise ValueError(f"unknown leftover measure {leftover!r}; choose one of {list(LEFTOVER)}")
     records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
     from ..physics.effects import EFFECTS
 
@@ -169,6 +176,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     if not train:
         raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
     cond_values = _trend_conditions(conditions, Split(train, val, test))
+    trend_values = dict(cond_values)  # the conditions a parameter may depend on: a leftover network reads them too
     check_conditions(Split(train, val, test), conditions_used(nominal),
                      "the nominal model (a parameter as a function of a condition)")
     n_train = sum(len(r) for r in train)
@@ -287,7 +295,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                               "parameters_without_refit": _parameters(m)}
             now["val"] = was["val"]  # the validation error stays out of sample
     diag_after = diagnose(train, preds_after["train"], noise_sd)
-    network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
+    if leftover == "dynamics":
+        network = neural_leftover(model, train, val or None, sim=final_sim, conditions=trend_values,
+                                  progress=progress)
+    else:
+        network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
     nominal_effects = {e.name for e in initial.effects.values()}
     final_effects = [e.name for e in model.effects.values()]
     report = {
@@ -309,6 +321,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                      "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
                      "backend": backend, "substeps": substeps, "substeps_final": final_sim["substeps"],
+                     "leftover": leftover,
                      "refit": bool(refit and val)},
         "refit": refitted,
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
@@ -322,54 +335,3 @@ def _refit_on(model, records, sim: dict, lm_steps: int, box_factor: float):
     """A copy of ``model`` with every coordinate refitted on ``records`` (LM from its values); its settings."""
     f = polish(copy.deepcopy(model), records, sim, lm_steps, box_factor)
     return f.model, _at(sim, f)
-
-
-FLAG_SHARE = 0.1  # residual variance a small network recovers on validation above which structure is flagged
-
-
-def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) -> bool:
-    """True when structure is left that the library did not name: with a known noise level, a training error
-    above 1.2 × noise; without one, a residual network that recovers more than ``FLAG_SHARE`` of the
-    remaining residual's variance on validation records."""
-    if noise_sd is not None and math.isfinite(train_rmse):
-        return train_rmse > 1.2 * float(noise_sd)
-    share = network.get("explained_share")
-    return share is not None and math.isfinite(share) and share > FLAG_SHARE
-
-
-def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:
-    """How much of the remaining residual a small network of (x, ẋ, sign ẋ, travel since reversal,
-    conditions) recovers: the share of residual variance it explains on validation records (training
-    records without them). An honest "is anything structured left" number, not a model."""
-    from .diagnose import features
-
-    def table(records, preds):
-        X, R = [], []
-        for rec, p in zip(records, preds):
-            f = features(rec.t, rec.x)
-            cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"]]
-            X.append(np.stack(cols, 1))
-            R.append(np.asarray(rec.y) - p)
-        return np.concatenate(X), np.concatenate(R)
-
-    X, R = table(train, train_pred)
-    Xv, Rv = table(val, val_pred) if val else (X, R)
-    mu, sd = X.mean(0), X.std(0) + 1e-12
-    rs = R.std() or 1.0
-    g = torch.Generator().manual_seed(seed)
-    torch.manual_seed(seed)
-    net = MLP(X.shape[1], 1, hidden=[32, 32], zero_last=False).double()
-    opt = torch.optim.Adam(net.parameters(), lr=1e-2)
-    Xt, Rt = torch.as_tensor((X - mu) / sd), torch.as_tensor(R / rs)
-    for _ in range(steps):
-        idx = torch.randint(0, len(Xt), (min(len(Xt), 2048),), generator=g)
-        loss = (net(Xt[idx])[:, 0] - Rt[idx]).square().mean()
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-    with torch.no_grad():
-        pv = net(torch.as_tensor((Xv - mu) / sd))[:, 0].numpy() * rs
-    share = 1 - float(np.var(Rv - pv) / max(np.var(Rv), 1e-300))
-    return {"explained_share": share, "on": "val" if val else "train",
-            "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
-

@@ -129,10 +129,8 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
                                                                  else "") + "; lag-1 autocorrelation "
               f"{_fmt(u['whiteness']['lag_1'])} ({'white' if u['whiteness']['white'] else 'not white'}); the "
               f"residual depends most on {', '.join(f'{k} (η² = {v:.2f})' for k, v in dep)}; its largest share "
-              f"({_fmt(100 * u['where']['share'])} %) sits at loop phase {u['where']['phase_deg']:.0f}°. A small "
-              f"network of (x, ẋ, sign ẋ, travel since reversal) recovers "
-              f"{_fmt(100 * u['residual_network']['explained_share'])} % of the remaining residual variance on the "
-              f"{u['residual_network']['on']} records." + (
+              f"({_fmt(100 * u['where']['share'])} %) sits at loop phase {u['where']['phase_deg']:.0f}°. "
+              + _leftover_sentence(u["residual_network"]) + (
                   " **Structure is left that no library effect explains** (flagged: above 1.2 × the known noise, "
                   "or the network recovers more than 10 % of it); look at the residual figures for its shape."
                   if u.get("structure_flagged") else ""),
@@ -142,6 +140,18 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     lines += ["## Parameters after", "", "| parameter | value | unit |", "|---|---|---|"]
     lines += [f"| {k} | {_fmt(v['value'])} | {v['unit']} |" for k, v in a["parameters"].items()]
     return "\n".join(lines) + "\n"
+
+
+def _leftover_sentence(net: dict) -> str:
+    """What the leftover network (``leftover.py``) recovered, in one sentence."""
+    share, on = _fmt(100 * net["explained_share"]), net["on"]
+    if net.get("network") == "dynamics":
+        return (f"A network inside the model's equations (a force with a latent state, fitted through the simulator "
+                f"with every physical parameter held) removes {share} % of the remaining mean squared error on the "
+                f"{on} records ({_fmt(net['rmse_before'])} → {_fmt(net['rmse_after_network'])}; "
+                f"{_fmt(100 * net['train_share'])} % on the training records).")
+    return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers {share} % of the remaining "
+            f"residual variance on the {on} records.")
 
 
 def write_discovery(result: DiscoveryResult, out_dir, title: str = "Discovery", unit: str = "") -> Path:

@@ -40,8 +40,9 @@ class NeuralEffect(Effect):
         s_v / s_x [1/t] the latent states' rate unit. Missing ones are 1.
     conditions : {name: (mean, sd)} of the operating conditions the network reads (empty: none).
 
-    Units: no physical parameters; the weights are trained (``hybridhyst-train placement=dynamics``) and
-    are not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
+    Units: no physical parameters; the weights are trained (``hybridhyst-train placement=dynamics``, or
+    through the simulator by the discovery loop's leftover measure, ``discover.leftover=dynamics``) and are
+    not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
     latent_states)``. The compiled fast path does not cover networks: ``simulate(backend="fast")`` runs a
     model holding this effect on the batched reference loop (same values, exact autograd gradients).
     Source: universal differential equations (Rackauckas et al., arXiv:2001.04385, 2020); model

@@ -1,0 +1,156 @@
+"""How much structure the final model leaves: a network fitted to what remains, scored on records it did not see.
+
+Two networks, one question ("is anything structured left that the library did not name?"):
+
+* ``residual_network`` (``leftover="static"``): a small MLP of (x, ẋ, sign ẋ, travel since reversal) fitted
+  to the residual, point by point. Cheap; it sees no memory beyond the travel since the last reversal.
+* ``neural_leftover`` (``leftover="dynamics"``): a ``NeuralEffect`` — a force with a latent state of its
+  own — added *inside* the final model's equations, its weights fitted through the simulator with every
+  physical parameter held; the augmented model is then simulated on the validation records. It can
+  represent what a pointwise correction cannot (a play, a slow state, a force that depends on the path).
+
+Either gives ``explained_share``: the share of the remaining residual that the network removes on the
+validation records (the training records without them); ``structure_flagged`` turns it into the flag.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+
+import numpy as np
+import torch
+
+from ..nets import MLP
+from ..physics.effects import NeuralEffect
+from ..progress import progress as progress_bar
+from ..simulate import simulate
+from .candidates import Scales, _placed
+
+__all__ = ["FLAG_SHARE", "LEFTOVER", "neural_leftover", "residual_network", "structure_flagged"]
+
+FLAG_SHARE = 0.1  # residual a network recovers on validation above which structure is flagged
+LEFTOVER = ("static", "dynamics")
+
+
+def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) -> bool:
+    """True when structure is left that the library did not name: with a known noise level, a training error
+    above 1.2 × noise; without one, a residual network that recovers more than ``FLAG_SHARE`` of the
+    remaining residual on validation records."""
+    if noise_sd is not None and math.isfinite(train_rmse):
+        return train_rmse > 1.2 * float(noise_sd)
+    share = network.get("explained_share")
+    return share is not None and math.isfinite(share) and share > FLAG_SHARE
+
+
+def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:
+    """How much of the remaining residual a small network of (x, ẋ, sign ẋ, travel since reversal) recovers:
+    the share of residual variance it explains on validation records (training records without them). An
+    honest "is anything structured left" number, not a model."""
+    from .diagnose import features
+
+    def table(records, preds):
+        X, R = [], []
+        for rec, p in zip(records, preds):
+            f = features(rec.t, rec.x)
+            cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"]]
+            X.append(np.stack(cols, 1))
+            R.append(np.asarray(rec.y) - p)
+        return np.concatenate(X), np.concatenate(R)
+
+    X, R = table(train, train_pred)
+    Xv, Rv = table(val, val_pred) if val else (X, R)
+    mu, sd = X.mean(0), X.std(0) + 1e-12
+    rs = R.std() or 1.0
+    g = torch.Generator().manual_seed(seed)
+    torch.manual_seed(seed)
+    net = MLP(X.shape[1], 1, hidden=[32, 32], zero_last=False).double()
+    opt = torch.optim.Adam(net.parameters(), lr=1e-2)
+    Xt, Rt = torch.as_tensor((X - mu) / sd), torch.as_tensor(R / rs)
+    for _ in range(steps):
+        idx = torch.randint(0, len(Xt), (min(len(Xt), 2048),), generator=g)
+        loss = (net(Xt[idx])[:, 0] - Rt[idx]).square().mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    with torch.no_grad():
+        pv = net(torch.as_tensor((Xv - mu) / sd))[:, 0].numpy() * rs
+    share = 1 - float(np.var(Rv - pv) / max(np.var(Rv), 1e-300))
+    return {"network": "static", "explained_share": share, "on": "val" if val else "train",
+            "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
+
+
+def _squared_errors(model, records, sim: dict) -> torch.Tensor:
+    """Squared output errors of ``model`` on ``records`` (scored samples only: each record's warm-up is left
+    out), pooled into one tensor that carries the gradient of the model's trainable weights."""
+    ys = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    return torch.cat([(y[r.warmup:, 0] - torch.as_tensor(np.asarray(r.y)[r.warmup:], dtype=y.dtype)).square()
+                      for y, r in zip(ys, records)])
+
+
+def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | None = None, hidden: str = "2x16",
+                    latent_states: int = 1, iterations: int = 40, seed: int = 0, progress: bool = True) -> dict:
+    """How much of the remaining error a network *inside* ``model``'s dynamics removes.
+
+    A ``NeuralEffect`` (force and ``latent_states`` states of its own, inputs x and ẋ and the ``conditions``
+    {name: training values}, scales from the training records) is added to a copy of ``model``; it starts at
+    zero, so the copy starts exactly at ``model``. Its weights are fitted by full-batch L-BFGS (strong-Wolfe line
+    search, ``iterations`` at most) on the training records' squared error, every physical parameter held; the
+    weights with the lowest training loss seen are kept. ``explained_share`` = 1 − MSE(augmented) / MSE(model)
+    on the validation records (on the training records without them): the share of the remaining mean squared
+    error — offsets included — the network removes out of sample.
+
+    Returns ``{"network": "dynamics", "explained_share", "on", "rmse_after_network", "rmse_before",
+    "train_share", "evaluations", "wall_s"}``.
+    """
+    start = time.perf_counter()
+    from ..physics.models import DrivenOscillator
+
+    torch.manual_seed(seed)
+    s = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
+    cond = {c: (float(np.mean(v)), float(np.std(v))) for c, v in (conditions or {}).items()}
+    net = NeuralEffect(("x", "v"), latent_states, hidden, scales={"x": s.x, "v": s.v, "u": s.u, "F": s.F},
+                       conditions=cond).to(next(iter(model.parameters())).dtype)
+    augmented = _placed(copy.deepcopy(model), "neural_leftover", net)
+    for p in augmented.parameters():
+        p.requires_grad_(False)
+    weights = list(augmented.effects["neural_leftover"].net.parameters())
+    for w in weights:
+        w.requires_grad_(True)
+    with torch.no_grad():
+        base_train = float(_squared_errors(augmented, train, sim).mean())
+    norm = max(base_train, 1e-300)
+    best = {"loss": 1.0, "weights": [w.detach().clone() for w in weights]}
+    opt = torch.optim.LBFGS(weights, lr=1.0, max_iter=int(iterations), max_eval=int(1.25 * iterations) + 1,
+                            history_size=20, tolerance_grad=1e-9, tolerance_change=1e-12, line_search_fn="strong_wolfe")
+    bar = progress_bar(total=int(1.25 * iterations) + 1, desc="leftover: network in the dynamics", enabled=progress)
+    evaluations = 0
+
+    def closure():
+        nonlocal evaluations
+        evaluations += 1
+        bar.update(1)
+        opt.zero_grad()
+        loss = _squared_errors(augmented, train, sim).mean() / norm
+        if not torch.isfinite(loss):  # a diverging trial step: tell the line search it is worse than the start
+            return torch.tensor(math.inf, dtype=loss.dtype)
+        loss.backward()
+        if float(loss.detach()) < best["loss"]:
+            best.update(loss=float(loss.detach()), weights=[w.detach().clone() for w in weights])
+        return loss
+
+    try:
+        opt.step(closure)
+    except RuntimeError:  # the line search cannot continue from a non-finite value: keep the best seen
+        pass
+    bar.close()
+    with torch.no_grad():
+        for w, b in zip(weights, best["weights"]):
+            w.copy_(b)
+        scored = val or train
+        before = float(_squared_errors(model, scored, sim).mean())
+        after = float(_squared_errors(augmented, scored, sim).mean())
+    return {"network": "dynamics", "explained_share": 1.0 - after / max(before, 1e-300),
+            "on": "val" if val else "train", "rmse_after_network": math.sqrt(after), "rmse_before": math.sqrt(before),
+            "train_share": 1.0 - best["loss"], "evaluations": evaluations, "wall_s": time.perf_counter() - start}
