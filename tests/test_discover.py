@@ -43,7 +43,7 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
     assert f"**{effect}** (effect)" in report.read_text()
 
 
-def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64):
+def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64, tmp_path):
     res = discover(make_records(None, noise_sd=NOISE), base_model(None), candidates=FEW, split=SPLIT,
                    conditions=True, noise_sd=NOISE, leftover="dynamics", **FAST)
     assert res.report["steps"] == [] and res.report["rejected"]  # the best candidate was tried and refused
@@ -52,6 +52,8 @@ def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64):
     assert left["residual_network"]["network"] == "dynamics" and left["residual_network"]["on"] == "val"
     assert left["residual_network"]["explained_share"] < 0.1 and not left["structure_flagged"]
     assert res.report["settings"]["leftover"] == "dynamics"
+    report = write_discovery(res, tmp_path, title="t", unit="kip").read_text()
+    assert "A network inside the model's equations" in report and "not used for the flag" not in report
 
 
 def test_a_parameter_that_follows_a_condition_is_found(float64):
@@ -232,6 +234,9 @@ def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network()
     assert not structure_flagged({"explained_share": 0.9}, train_rmse=0.21, noise_sd=0.2)
     assert structure_flagged({"explained_share": 0.3}, train_rmse=0.3, noise_sd=None)
     assert not structure_flagged({"explained_share": 0.05}, train_rmse=0.3, noise_sd=None)
+    # a network in the dynamics scored on the records it was fitted to (no validation records) does not flag
+    assert not structure_flagged({"network": "dynamics", "explained_share": 0.5, "on": "train"}, 0.3, None)
+    assert structure_flagged({"network": "dynamics", "explained_share": 0.5, "on": "val"}, 0.3, None)
 
 
 def test_the_chosen_structure_is_refitted_on_training_and_validation_records(float64):

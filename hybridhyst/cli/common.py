@@ -202,7 +202,7 @@ def _composition_message(exc: Exception) -> str:
 def _type_change_hint(text: str) -> str:
     """The hint for a list given where the config holds a mapping, or the other way round (OmegaConf's message
     is the same both ways; the override's value says which): the form the key takes, and how to change it."""
-    found = re.search(r"override\s+([\w.]+)=\s*(\S)", text)
+    found = re.search(r"override\s+\+{0,2}([^\s=]+)=\s*(\S)", text)
     if found is None:
         return "; a list was given where the config holds a mapping, or the other way round"
     key, first = found.groups()

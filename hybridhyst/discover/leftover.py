@@ -15,16 +15,17 @@ validation records (the training records without them); ``structure_flagged`` tu
 
 from __future__ import annotations
 
-import copy
+import itertools
 import math
 import time
 
 import numpy as np
 import torch
 
+from ..identify import fit_gradient
+from ..identify.gradient import record_loss
 from ..nets import MLP
 from ..physics.effects import NeuralEffect
-from ..progress import progress as progress_bar
 from ..simulate import simulate
 from .candidates import Scales, _placed
 
@@ -36,10 +37,12 @@ LEFTOVER = ("static", "dynamics")
 
 def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) -> bool:
     """True when structure is left that the library did not name: with a known noise level, a training error
-    above 1.2 × noise; without one, a residual network that recovers more than ``FLAG_SHARE`` of the
-    remaining residual on validation records."""
+    above 1.2 × noise; without one, a leftover network that recovers more than ``FLAG_SHARE`` of the
+    remaining residual on validation records (the static one also on training records when there are none)."""
     if noise_sd is not None and math.isfinite(train_rmse):
         return train_rmse > 1.2 * float(noise_sd)
+    if network.get("network") == "dynamics" and network.get("on") != "val":
+        return False  # fitted and scored on the same records: a network with a memory fits noise too
     share = network.get("explained_share")
     return share is not None and math.isfinite(share) and share > FLAG_SHARE
 
@@ -81,76 +84,50 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
             "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
 
 
-def _squared_errors(model, records, sim: dict) -> torch.Tensor:
-    """Squared output errors of ``model`` on ``records`` (scored samples only: each record's warm-up is left
-    out), pooled into one tensor that carries the gradient of the model's trainable weights."""
-    ys = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    return torch.cat([(y[r.warmup:, 0] - torch.as_tensor(np.asarray(r.y)[r.warmup:], dtype=y.dtype)).square()
-                      for y, r in zip(ys, records)])
-
-
 def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | None = None, hidden: str = "2x16",
                     latent_states: int = 1, iterations: int = 40, seed: int = 0, progress: bool = True) -> dict:
     """How much of the remaining error a network *inside* ``model``'s dynamics removes.
 
     A ``NeuralEffect`` (force and ``latent_states`` states of its own, inputs x and ẋ and the ``conditions``
-    {name: training values}, scales from the training records) is added to a copy of ``model``; it starts at
-    zero, so the copy starts exactly at ``model``. Its weights are fitted by full-batch L-BFGS (strong-Wolfe line
-    search, ``iterations`` at most) on the training records' squared error, every physical parameter held; the
-    weights with the lowest training loss seen are kept. ``explained_share`` = 1 − MSE(augmented) / MSE(model)
-    on the validation records (on the training records without them): the share of the remaining mean squared
-    error — offsets included — the network removes out of sample.
+    {name: training values}, scales from the training records: ``Scales``) is added to a copy of ``model``; it
+    starts at zero, so the copy starts exactly at ``model``. Its weights are fitted by full-batch L-BFGS
+    (``identify.fit_gradient``: strong-Wolfe line search, ``iterations`` at most, the best weights seen kept) on
+    the training records' mean squared error, every physical parameter held. ``explained_share`` = 1 −
+    MSE(augmented) / MSE(model) on the validation records: the share of the remaining mean squared error —
+    offsets included — the network removes out of sample. Without validation records it is scored on the
+    training records it was fitted to (``on="train"``), in sample: reported, but ``structure_flagged`` does
+    not use it.
 
     Returns ``{"network": "dynamics", "explained_share", "on", "rmse_after_network", "rmse_before",
     "train_share", "evaluations", "wall_s"}``.
     """
-    start = time.perf_counter()
     from ..physics.models import DrivenOscillator
 
-    torch.manual_seed(seed)
+    start = time.perf_counter()
+    ref = next(itertools.chain(model.parameters(), model.buffers()))
     s = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
     cond = {c: (float(np.mean(v)), float(np.std(v))) for c, v in (conditions or {}).items()}
-    net = NeuralEffect(("x", "v"), latent_states, hidden, scales={"x": s.x, "v": s.v, "u": s.u, "F": s.F},
-                       conditions=cond).to(next(iter(model.parameters())).dtype)
-    augmented = _placed(copy.deepcopy(model), "neural_leftover", net)
+    with torch.random.fork_rng():  # the weights' draw does not move the caller's random state
+        torch.manual_seed(seed)
+        net = NeuralEffect(("x", "v"), latent_states, hidden, scales={"x": s.x, "v": s.v, "u": s.u, "F": s.F},
+                           conditions=cond).to(device=ref.device, dtype=ref.dtype)
+    augmented = _placed(model, "neural_leftover", net)  # a copy: the caller's model is not touched
     for p in augmented.parameters():
         p.requires_grad_(False)
-    weights = list(augmented.effects["neural_leftover"].net.parameters())
-    for w in weights:
+    for w in augmented.effects["neural_leftover"].net.parameters():
         w.requires_grad_(True)
-    with torch.no_grad():
-        base_train = float(_squared_errors(augmented, train, sim).mean())
-    norm = max(base_train, 1e-300)
-    best = {"loss": 1.0, "weights": [w.detach().clone() for w in weights]}
-    opt = torch.optim.LBFGS(weights, lr=1.0, max_iter=int(iterations), max_eval=int(1.25 * iterations) + 1,
-                            history_size=20, tolerance_grad=1e-9, tolerance_change=1e-12, line_search_fn="strong_wolfe")
-    bar = progress_bar(total=int(1.25 * iterations) + 1, desc="leftover: network in the dynamics", enabled=progress)
-    evaluations = 0
+    fit = fit_gradient(augmented, list(train), steps=0, lbfgs_steps=int(iterations), progress=progress,
+                       method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
 
-    def closure():
-        nonlocal evaluations
-        evaluations += 1
-        bar.update(1)
-        opt.zero_grad()
-        loss = _squared_errors(augmented, train, sim).mean() / norm
-        if not torch.isfinite(loss):  # a diverging trial step: tell the line search it is worse than the start
-            return torch.tensor(math.inf, dtype=loss.dtype)
-        loss.backward()
-        if float(loss.detach()) < best["loss"]:
-            best.update(loss=float(loss.detach()), weights=[w.detach().clone() for w in weights])
-        return loss
+    def mse(m, records):
+        preds = simulate(m, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+        return float(record_loss(preds, list(records)))
 
-    try:
-        opt.step(closure)
-    except RuntimeError:  # the line search cannot continue from a non-finite value: keep the best seen
-        pass
-    bar.close()
     with torch.no_grad():
-        for w, b in zip(weights, best["weights"]):
-            w.copy_(b)
         scored = val or train
-        before = float(_squared_errors(model, scored, sim).mean())
-        after = float(_squared_errors(augmented, scored, sim).mean())
+        before, after = mse(model, scored), mse(augmented, scored)
+        train_before = mse(model, train)
     return {"network": "dynamics", "explained_share": 1.0 - after / max(before, 1e-300),
             "on": "val" if val else "train", "rmse_after_network": math.sqrt(after), "rmse_before": math.sqrt(before),
-            "train_share": 1.0 - best["loss"], "evaluations": evaluations, "wall_s": time.perf_counter() - start}
+            "train_share": 1.0 - fit.loss / max(train_before, 1e-300), "evaluations": fit.evaluations,
+            "wall_s": time.perf_counter() - start}

@@ -150,8 +150,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     leftover : how the structure left is measured (``leftover.py``): "static", a small network of the
         kinematics fitted to the final residual point by point (seconds); "dynamics", a network with a latent
         state fitted *inside* the final model's equations through the simulator (a memory a pointwise
-        correction cannot have; tens of seconds on the bundled BRFD, more on long records). Either's share of
-        the residual recovered on validation records is reported and sets the flag when no noise level is known.
+        correction cannot have; tens of seconds on the bundled BRFD, more on long records), on the
+        training-only fit (before the refit) so that the validation records are out of sample for the physics
+        too. Either's share of the residual recovered on validation records is reported and sets the flag when
+        no noise level is known.
 
     Raises
     ------
@@ -280,6 +282,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None
+    training_only = (model, final_sim)  # the chosen structure fitted on the training records alone
     if refit and val:  # the structure is chosen: its parameters (and the nominal's) use every non-test record
         chosen = {"before": (initial, before), "after": (model, after)}
         initial, initial_sim = _refit_on(initial, train + val, initial_sim, lm_steps, box_factor)
@@ -296,8 +299,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             now["val"] = was["val"]  # the validation error stays out of sample
     diag_after = diagnose(train, preds_after["train"], noise_sd)
     if leftover == "dynamics":
-        network = neural_leftover(model, train, val or None, sim=final_sim, conditions=trend_values,
-                                  progress=progress)
+        # on the training-only fit, so that the validation records are out of sample for the physics too
+        network = neural_leftover(training_only[0], train, val or None, sim=training_only[1],
+                                  conditions=trend_values, progress=progress)
     else:
         network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
     nominal_effects = {e.name for e in initial.effects.values()}
@@ -320,7 +324,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
                      "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
-                     "backend": backend, "substeps": substeps, "substeps_final": final_sim["substeps"],
+                     "backend": backend, "method": method, "substeps": substeps,
+                     "substeps_final": final_sim["substeps"],
                      "leftover": leftover,
                      "refit": bool(refit and val)},
         "refit": refitted,

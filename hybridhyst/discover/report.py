@@ -10,6 +10,7 @@ import numpy as np
 from ..files import atomic_write, write_json
 from ..report.figures import write_loops
 from .diagnose import FEATURES, features
+from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
 
 __all__ = ["write_discovery"]
@@ -132,7 +133,8 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
               f"({_fmt(100 * u['where']['share'])} %) sits at loop phase {u['where']['phase_deg']:.0f}°. "
               + _leftover_sentence(u["residual_network"]) + (
                   " **Structure is left that no library effect explains** (flagged: above 1.2 × the known noise, "
-                  "or the network recovers more than 10 % of it); look at the residual figures for its shape."
+                  f"or the network recovers more than {FLAG_SHARE:.0%} of it); look at the residual figures for its "
+                  "shape."
                   if u.get("structure_flagged") else ""),
               "",
               "![Residual against each feature, before and after](residuals.png)", "",
@@ -149,7 +151,8 @@ def _leftover_sentence(net: dict) -> str:
         return (f"A network inside the model's equations (a force with a latent state, fitted through the simulator "
                 f"with every physical parameter held) removes {share} % of the remaining mean squared error on the "
                 f"{on} records ({_fmt(net['rmse_before'])} → {_fmt(net['rmse_after_network'])}; "
-                f"{_fmt(100 * net['train_share'])} % on the training records).")
+                f"{_fmt(100 * net['train_share'])} % on the training records)"
+                + (", in sample: not used for the flag." if on != "val" else "."))
     return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers {share} % of the remaining "
             f"residual variance on the {on} records.")
 

@@ -54,7 +54,8 @@ class FitResult:
 
 
 def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], loss: str = "mse") -> torch.Tensor:
-    """Pooled loss over every sample of every record: mean of squared (``"mse"``) or absolute (``"mae"``) errors.
+    """Pooled loss over every scored sample of every record (each record's ``warmup`` samples are simulated,
+    not scored): mean of squared (``"mse"``) or absolute (``"mae"``) errors.
 
     ``predictions`` holds one ``(time, output_dim)`` tensor per record (as ``simulate`` returns for
     records); channel 0 is compared with the record's response ``y``.
@@ -63,9 +64,9 @@ def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], 
         raise ValueError(f"unknown loss {loss!r}; choose one of {_LOSSES}")
     total, count = 0.0, 0
     for pred, r in zip(predictions, records):
-        err = pred[:, 0] - torch.as_tensor(r.y, dtype=pred.dtype, device=pred.device)
+        err = pred[r.warmup:, 0] - torch.as_tensor(r.y[r.warmup:], dtype=pred.dtype, device=pred.device)
         total = total + (err.square().sum() if loss == "mse" else err.abs().sum())
-        count += len(r)
+        count += len(r) - r.warmup
     return total / count
 
 
@@ -148,7 +149,12 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
         value = obj()
         if torch.isfinite(value):
             value.backward()
-        return value
+            return value
+        if not math.isfinite(obj.best):
+            return value  # nothing finite yet: the iteration ends and the fit stops
+        # a diverging trial step of the line search: a large finite loss (no gradient) makes it back off, where
+        # inf would turn its interpolation into nan
+        return value.new_tensor(1e3 * max(obj.best, 1e-300))
 
     done = 0
     with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:
