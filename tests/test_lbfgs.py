@@ -1,12 +1,13 @@
 """The L-BFGS stage after Adam (``trainer.lbfgs``): one step equals torch's L-BFGS on the whole batch in one pass
 (the chunked loss and gradient are the full-batch mean), the stage lowers the training loss and keeps the best
 checkpoint of both stages, a run resumed after the Adam epochs ends where an uninterrupted one does, and bad
-settings are one-line errors."""
+settings are one-line errors; a diverging trial step makes the line search back off (``optim``)."""
 
 from __future__ import annotations
 
 import copy
 import json
+import math
 
 import pytest
 import torch
@@ -14,6 +15,7 @@ from hydra import compose, initialize_config_dir
 
 from hybridhyst.cli import train
 from hybridhyst.cli.common import CONF_DIR
+from hybridhyst.optim import line_search_loss
 from hybridhyst.training.build import build_datamodule, build_module, build_trainer
 
 SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none", "baseline=hybrid_mlp"]
@@ -106,3 +108,30 @@ def test_a_line_search_into_diverged_simulations_keeps_the_weights_it_started_fr
     assert len(calls) > chunks  # trial points were tried and found diverged
     for a, b in zip(module.parameters(), start.parameters()):
         assert torch.equal(a, b)  # no step into them
+
+
+@pytest.mark.parametrize("rule", ["line_search_loss", "inf"])
+def test_a_diverging_trial_step_makes_the_line_search_back_off(rule):
+    """f(x) = (x − 0.5)² with a wall at x > 0.6 where the 'simulation' diverges; L-BFGS's first trial from x = 0
+    lands at x = 1, beyond it. The shared rule (a large finite loss) lets the search back off and converge; inf,
+    what the closures returned before, leaves the step stuck at its start after spending its evaluations."""
+    x = torch.zeros(1, dtype=torch.float64, requires_grad=True)
+    opt = torch.optim.LBFGS([x], lr=1.0, max_iter=50, line_search_fn="strong_wolfe")
+    best, calls = [math.inf], [0]
+
+    def closure():
+        calls[0] += 1
+        opt.zero_grad()
+        if float(x) > 0.6:
+            value = torch.tensor(math.inf, dtype=torch.float64)
+            return line_search_loss(value, best[0]) if rule == "line_search_loss" else value
+        f = (x - 0.5).square().sum()
+        f.backward()
+        best[0] = min(best[0], float(f))
+        return f
+
+    opt.step(closure)
+    if rule == "line_search_loss":
+        assert best[0] < 1e-12 and calls[0] < 15
+    else:
+        assert best[0] == pytest.approx(0.25) and calls[0] > 50

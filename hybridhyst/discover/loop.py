@@ -282,7 +282,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None
-    training_only = (model, final_sim)  # the chosen structure fitted on the training records alone
+    trained_model, trained_sim = model, final_sim  # the chosen structure fitted on the training records alone
     if refit and val:  # the structure is chosen: its parameters (and the nominal's) use every non-test record
         chosen = {"before": (initial, before), "after": (model, after)}
         initial, initial_sim = _refit_on(initial, train + val, initial_sim, lm_steps, box_factor)
@@ -300,8 +300,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     diag_after = diagnose(train, preds_after["train"], noise_sd)
     if leftover == "dynamics":
         # on the training-only fit, so that the validation records are out of sample for the physics too
-        network = neural_leftover(training_only[0], train, val or None, sim=training_only[1],
-                                  conditions=trend_values, progress=progress)
+        network = neural_leftover(trained_model, train, val or None, sim=trained_sim, conditions=trend_values,
+                                  progress=progress)
     else:
         network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
     nominal_effects = {e.name for e in initial.effects.values()}

@@ -19,6 +19,7 @@ from torch import nn
 
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
+from ..optim import line_search_loss
 from ..physics.parameters import project_to_bounds
 from ..progress import progress as progress_bar
 from ..simulate import simulate
@@ -149,12 +150,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
         value = obj()
         if torch.isfinite(value):
             value.backward()
-            return value
-        if not math.isfinite(obj.best):
-            return value  # nothing finite yet: the iteration ends and the fit stops
-        # a diverging trial step of the line search: a large finite loss (no gradient) makes it back off, where
-        # inf would turn its interpolation into nan
-        return value.new_tensor(1e3 * max(obj.best, 1e-300))
+        return line_search_loss(value, obj.best)
 
     done = 0
     with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:

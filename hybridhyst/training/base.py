@@ -13,6 +13,7 @@ from torch import nn
 
 from ..data.datamodule import Normaliser
 from ..nets import build_net, count_parameters
+from ..optim import line_search_loss
 from ..physics.models import DrivenOscillator
 from ..simulate import simulate
 from .losses import data_loss
@@ -174,10 +175,10 @@ class SequenceModule(L.LightningModule):
         opt = self.optimizers()
         B, scored = batch["y"].shape[0], float(batch["mask"].sum().clamp_min(1.0))
         parts = [slice(i, i + self.lbfgs["chunk"]) for i in range(0, B, self.lbfgs["chunk"])]
-        evaluations = 0
+        evaluations, start = 0, math.inf  # start: the loss where the step began (the line search's reference)
 
         def closure():
-            nonlocal evaluations
+            nonlocal evaluations, start
             evaluations += 1
             opt.zero_grad()
             total = torch.zeros((), dtype=self.dtype)
@@ -185,11 +186,13 @@ class SequenceModule(L.LightningModule):
                 part = {k: v[sl] for k, v in batch.items()}
                 share = (float(part["mask"].sum()) / scored, part["y"].shape[0] / B, sl.start == 0)
                 loss = self._objective(part, share=share)
-                if loss is None:  # a diverged simulation: the line search brackets back towards its start
+                if loss is None:  # a diverged simulation: a large finite loss, so the line search backs off
                     opt.zero_grad()
-                    return torch.tensor(math.inf, dtype=self.dtype)
+                    return line_search_loss(torch.tensor(math.inf, dtype=self.dtype), start)
                 self.manual_backward(loss)
                 total = total + loss.detach()
+            if evaluations == 1:
+                start = float(total)
             return total
 
         loss = opt.step(closure)
