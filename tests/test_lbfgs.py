@@ -135,3 +135,26 @@ def test_a_diverging_trial_step_makes_the_line_search_back_off(rule):
         assert best[0] < 1e-12 and calls[0] < 15
     else:
         assert best[0] == pytest.approx(0.25) and calls[0] > 50
+
+
+@pytest.mark.parametrize("unit", [1.0, 1e-5])
+def test_fit_gradient_lbfgs_does_not_depend_on_the_outputs_unit(unit, float64):
+    """A response in metres (the Bouc-Wen benchmark's 1e-5 m) has a mean squared error near 1e-10 and gradients
+    below torch's L-BFGS tolerance (1e-7): the search must not stop at its start because of the unit (the
+    leftover network's weights, O(1) whatever the unit, stayed at zero on that benchmark)."""
+    import numpy as np
+
+    from hybridhyst.data.records import Record
+    from hybridhyst.identify.gradient import fit_gradient
+    from hybridhyst.physics.effects import EFFECTS
+    from hybridhyst.physics.models import Constitutive
+
+    t = np.linspace(0.0, 2.0, 201)
+    x = unit * np.sin(2 * np.pi * t)
+    record = Record(name="r", t=t, x=x, y=3.0 * x + 0.2 * unit * 2 * np.pi * np.cos(2 * np.pi * t))
+    model = Constitutive({"spring": EFFECTS["linear_stiffness"](k=1.0), "viscous": EFFECTS["viscous"](c=1.0)}).double()
+    fit = fit_gradient(model, [record], steps=0, lbfgs_steps=30, progress=False)
+    k = float(model.effects["spring"].params["k"](None, 1)[0])
+    c = float(model.effects["viscous"].params["c"](None, 1)[0])
+    assert k == pytest.approx(3.0, rel=1e-3) and c == pytest.approx(0.2, rel=1e-2)
+    assert fit.loss < 1e-6 * fit.history[0]

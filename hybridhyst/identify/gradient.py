@@ -145,12 +145,21 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
     # max_iter=1 per call (one progress tick per iteration); max_eval leaves room for the line search
     opt = torch.optim.LBFGS(params, lr=1.0, max_iter=1, max_eval=11, history_size=20, line_search_fn="strong_wolfe")
 
+    # the search minimises the loss relative to its first value: torch's tolerances on the gradient and on the
+    # change of the loss are absolute, and a response in metres (a mean squared error of 1e-10) would stop it
+    # at its start
+    scale = []
+
     def closure():
         opt.zero_grad()
         value = obj()
+        if not scale:
+            v = float(value.detach())
+            scale.append(1.0 / v if math.isfinite(v) and v > 0 else 1.0)
+        value = value * scale[0]
         if torch.isfinite(value):
             value.backward()
-        return line_search_loss(value, obj.best)
+        return line_search_loss(value, obj.best * scale[0])
 
     done = 0
     with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:
@@ -160,7 +169,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
             done += 1
             if not torch.isfinite(value):
                 break
-            history.append(float(value.detach()))
+            history.append(float(value.detach()) / scale[0])
             bar.update(1)
             bar.set_postfix(loss=f"{history[-1]:.4g}")
             if len(history) > 1 and abs(history[-2] - history[-1]) <= 1e-9 * max(abs(history[-1]), 1e-12):

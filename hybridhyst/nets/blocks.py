@@ -56,12 +56,17 @@ class MLP(nn.Module):
         self.body = nn.Sequential(*layers)
         self.head = nn.Linear(widths[-1], int(n_out))
         self.hidden = widths[1:]
+        self.activation = activation
         if zero_last:
             nn.init.zeros_(self.head.weight)
             nn.init.zeros_(self.head.bias)
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
         return self.head(self.body(features))
+
+    def layers(self) -> list[nn.Linear]:
+        """The linear layers in order (an activation follows each but the last)."""
+        return [m for m in self.body if isinstance(m, nn.Linear)] + [self.head]
 
 
 class LSTMNet(nn.Module):

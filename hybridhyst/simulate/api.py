@@ -104,11 +104,10 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         method (default "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``. The input is
         linearly interpolated inside each sample interval, so for a driven model the scheme is second
         order in the sample interval whatever its own order; sub-steps refine the state, not the input.
-    return_states : also return the states ``(batch, time, state_dim)`` (with ``backend="fast"`` as
-        constants: no gradient flows through the returned states).
+    return_states : also return the states ``(batch, time, state_dim)``, differentiable on both backends.
     backend : "reference" (the plain PyTorch loop) or "fast" (compiled numba loop with an exact discrete
-        adjoint, same values and gradients; ``hybridhyst.simulate.fast``); only for ``solver="fixed"``. A
-        model holding a network (``NeuralEffect``) runs on the reference loop, batched, with either backend.
+        adjoint, same values and gradients, networks included; ``hybridhyst.simulate.fast``); only for
+        ``solver="fixed"``.
     values : parameter values per batch row, ``{effect: {parameter: (batch,)}}`` as returned by
         ``model.evaluate`` (the structure's under ``"structure"``); replaces the model's own values, so a
         population of parameter sets (identification) or restarts run as one batch.
@@ -140,8 +139,6 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
     if backend not in ("reference", "fast"):
         raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
-    if backend == "fast" and not all(e.compiled for e in model.effects.values()):
-        backend = "reference"  # a network (neural effect) is not compiled: the batched reference loop runs it
     if backend == "fast":
         if solver != "fixed":
             raise ValueError("backend='fast' runs the fixed-step solver only; use solver='fixed'")

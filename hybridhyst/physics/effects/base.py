@@ -130,9 +130,6 @@ class Effect(nn.Module):
     # simpler effect sets this effect contains as an exact special case or limit (e.g. Stribeck with vs → ∞ is
     # Coulomb): the discovery loop tries each in its place and keeps the simpler one when the data allow
     special_cases: ClassVar[tuple[tuple[str, ...], ...]] = ()
-    # False for effects whose equations are not sympy-expressible (networks): the fast backend then runs the
-    # model on the batched reference loop
-    compiled: ClassVar[bool] = True
 
     def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
         super().__init__()
@@ -163,6 +160,10 @@ class Effect(nn.Module):
                 self.params[pname] = build_function(value, spec)
 
     # -- parameters -------------------------------------------------------------------------------
+    def value_names(self) -> list[str]:
+        """Names of the per-row values ``evaluate`` returns (the parameters; a network's conditions)."""
+        return list(self.params)
+
     def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> dict[str, torch.Tensor]:
         """Parameter values for a batch: name -> ``(batch,)`` tensor."""
         return {pname: fn(conditions, batch) for pname, fn in self.params.items()}

@@ -43,15 +43,16 @@ class NeuralEffect(Effect):
     Units: no physical parameters; the weights are trained (``hybridhyst-train placement=dynamics``, or
     through the simulator by the discovery loop's leftover measure, ``discover.leftover=dynamics``) and are
     not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
-    latent_states)``. The compiled fast path does not cover networks: ``simulate(backend="fast")`` runs a
-    model holding this effect on the batched reference loop (same values, exact autograd gradients).
+    latent_states)``. Both backends run it: on the compiled fast path the network is a generated numba
+    kernel whose weights are coordinates of the exact discrete adjoint (``simulate.fast``), on the
+    reference loop it is the torch module; the scales and condition statistics are constants of the
+    compiled equations, so change them by building a new effect.
     Source: universal differential equations (Rackauckas et al., arXiv:2001.04385, 2020); model
     augmentation (Beintema, Schoukens, Tóth, "Deep subspace encoders for nonlinear system identification",
     Automatica 156, 2023).
     """
 
     name = "neural"
-    compiled = False
     state_dim = 0
     equation = "F = s_F N(x/s_x, v/s_v, z, c);  dz/dt = (s_v/s_x) N_z(x/s_x, v/s_v, z, c)"
     source = "Rackauckas et al. 2020 (universal differential equations); Beintema et al. 2023"
@@ -88,6 +89,9 @@ class NeuralEffect(Effect):
         self.net = build_net("mlp", n_in, 1 + self.state_dim, hidden, activation=activation, zero_last=True)
         self._last: tuple | None = None
 
+    def value_names(self) -> list[str]:
+        return [f"@{c}" for c in self.condition_names]
+
     # conditions reach the force and rate like parameter values: normalised, one (batch,) tensor each
     def evaluate(self, conditions, batch):
         if not self.condition_names:
@@ -98,19 +102,32 @@ class NeuralEffect(Effect):
         return {f"@{c}": (conditions[c] - self.condition_mean[j]) / self.condition_sd[j]
                 for j, c in enumerate(self.condition_names)}
 
-    def _outputs(self, p, kin: Kinematics, state):
-        """Network outputs ``(batch, 1 + latent)`` at one instant (cached for the rate-then-force pair)."""
-        last = self._last
-        if last is not None and last[0] is kin and last[1] is state:
-            return last[2]
+    def features(self, p, kin: Kinematics, state) -> list:
+        """The network's inputs at one instant, normalised: ``(batch,)`` tensors, or sympy expressions when
+        the compiled path builds the model's equations."""
+        symbolic = not isinstance(kin.x, torch.Tensor)
         channels = {"x": kin.x, "v": kin.v, "u": kin.u, "du": kin.du}
-        cols = [channels[k] / self.input_scale[j] for j, k in enumerate(self.inputs)]
+        scale = self.input_scale.tolist() if symbolic else self.input_scale
+        cols = [channels[k] / scale[j] for j, k in enumerate(self.inputs)]
         cols += [state[:, j] for j in range(self.state_dim)]
         for c in self.condition_names:
             if f"@{c}" not in p:
                 raise ValueError(f"the neural effect reads condition {c!r}; simulate with conditions=, not values=")
             cols.append(p[f"@{c}"])
-        feats = torch.stack(cols, dim=1)
+        return cols
+
+    def terms(self, outputs) -> tuple:
+        """(force, [latent rates]) from the network's output columns (tensors or symbols)."""
+        if isinstance(outputs, torch.Tensor):
+            return self.force_scale * outputs[:, 0], self.rate_scale * outputs[:, 1:]
+        return float(self.force_scale) * outputs[0], [float(self.rate_scale) * o for o in outputs[1:]]
+
+    def _outputs(self, p, kin: Kinematics, state):
+        """Network outputs ``(batch, 1 + latent)`` at one instant (cached for the rate-then-force pair)."""
+        last = self._last
+        if last is not None and last[0] is kin and last[1] is state:
+            return last[2]
+        feats = torch.stack(self.features(p, kin, state), dim=1)
         out = self.net(feats.to(self.net.head.weight.dtype)).to(kin.x.dtype)
         self._last = (kin, state, out)
         return out
@@ -120,10 +137,10 @@ class NeuralEffect(Effect):
         return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
 
     def rate(self, p, kin: Kinematics, state):
-        return self.rate_scale * self._outputs(p, kin, state)[:, 1:]
+        return self.terms(self._outputs(p, kin, state))[1]
 
     def force(self, p, kin: Kinematics, state):
-        return self.force_scale * self._outputs(p, kin, state)[:, 0]
+        return self.terms(self._outputs(p, kin, state))[0]
 
     def extra_repr(self) -> str:
         return f"inputs={self.inputs}, latent_states={self.state_dim}, conditions={self.condition_names}"

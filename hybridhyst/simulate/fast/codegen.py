@@ -5,6 +5,11 @@ For a model with S states, P parameters and O outputs, the generated module hold
 state, parameters and inputs), the same pair for the outputs, and the two loops ``forward`` and
 ``backward`` (template below). ``backward`` is the exact adjoint of the discrete explicit Runge–Kutta
 map on the sample grid with sub-steps — the same numbers as autograd through the reference loop.
+
+A network inside the equations is a small MLP kernel (``_mlp_forward``) over its weights, which follow the
+P parameters in ``th``; the Jacobian kernels hold every network's output fixed, and ``rhs_net_vjp`` /
+``out_net_vjp`` add the networks' part of the chain rule by back-propagating the adjoint through them
+(``_network_vjp``), reading the layers the Jacobian kernel left in a buffer at the same point.
 Generated sources are cached on disk (numba ``cache=True``) keyed by their hash.
 """
 
@@ -40,18 +45,86 @@ class _Printer(PythonCodePrinter):
         return f"_abs_pow_log({self._print(expr.args[0])}, {self._print(expr.args[1])})"
 
 
-def _kernel(name: str, args: list[str], targets: list[tuple[str, sp.Expr]], printer, eq: Equations) -> str:
-    """A numba function assigning each ``target`` (e.g. ``f[0]``) its expression, with CSE."""
+_ACTIVATIONS = {"tanh": 0, "relu": 1, "gelu": 2, "silu": 3, "elu": 4}  # codes of _act / _dact below
+
+
+def _buffer_layout(eq: Equations) -> tuple[list[tuple[int, int, int, int]], int]:
+    """Per network (offset of Z, offset of A, layers, width) in one flat buffer of its layers' values, and
+    the buffer's size: a Jacobian kernel writes a stage's layers there and the adjoint kernel reads them."""
+    layout, at = [], 0
+    for net in eq.networks:
+        n_layers, width = len(net.widths) - 1, max(net.widths)
+        layout.append((at, at + n_layers * width, n_layers, width))
+        at += (2 * n_layers + 1) * width
+    return layout, at
+
+
+def _network_lines(eq: Equations, printer, evaluate: bool, read: set) -> list[str]:
+    """The networks' layers as views of ``buf`` (``Z{k}`` before, ``A{k}`` after the activations) and their
+    output symbols; with ``evaluate`` first the inputs from their expressions and a forward pass into them,
+    for the networks whose outputs are ``read``."""
+    lines = []
+    for k, (net, (z_at, a_at, n_layers, width)) in enumerate(zip(eq.networks, _buffer_layout(eq)[0])):
+        if evaluate and not read & set(net.outputs):
+            continue
+        lines.append(f"    Z{k} = buf[{z_at}:{a_at}].reshape(({n_layers}, {width}))")
+        lines.append(f"    A{k} = buf[{a_at}:{a_at + (n_layers + 1) * width}].reshape(({n_layers + 1}, {width}))")
+        if evaluate:
+            lines.append(f"    nin{k} = np.empty({net.widths[0]})")
+            lines += [f"    nin{k}[{a}] = {printer.doprint(e)}" for a, e in enumerate(net.inputs)]
+            lines.append(f"    _mlp_forward(nin{k}, th, {net.offset}, {tuple(net.widths)}, "
+                         f"{_ACTIVATIONS[net.activation]}, Z{k}, A{k})")
+        lines += [f"    {o} = A{k}[{n_layers}, {j}]" for j, o in enumerate(net.outputs)]
+    return lines
+
+
+def _kernel(name: str, args: list[str], targets: list[tuple[str, sp.Expr]], printer, eq: Equations,
+            head: list[str] | None = None, tail: list[str] | None = None, evaluate: bool = True) -> str:
+    """A numba function assigning each ``target`` (e.g. ``f[0]``) its expression, with CSE. Where the
+    targets read networks, their layers are in the argument ``buf`` (evaluated there first, or, without
+    ``evaluate``, already there). ``head`` lines run first, ``tail`` lines last."""
     exprs = [e for _, e in targets]
     subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("cse"), optimizations="basic")
     lines = ["@njit(cache=True, inline='always', error_model='numpy')", f"def {name}({', '.join(args)}):"]
+    lines += head or []
     lines += [f"    {s} = s[{i}]" for i, s in enumerate(eq.state)]
     lines += [f"    {p} = th[{i}]" for i, p in enumerate(eq.params)]
+    if "buf" in args:
+        lines += _network_lines(eq, printer, evaluate, set().union(*(e.free_symbols for e in exprs)))
     lines += [f"    {sym} = {printer.doprint(val)}" for sym, val in subs]
     lines += [f"    {tgt} = {printer.doprint(e)}" for (tgt, _), e in zip(targets, reduced)]
+    lines += tail or []
     if len(lines) == 2:
         lines.append("    pass")
     return "\n".join(lines)
+
+
+def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
+    """``name(s, u, du, ddu, th, w, lam, gth, gin, buf)``: the networks' part of the adjoint of ``exprs``
+    (the right-hand side or the outputs) weighted by ``w``, with the networks' layers in ``buf`` (written by
+    ``rhs_jac`` / ``out_jac`` at the same point): adds to ``lam`` (the state's adjoint), ``gth`` (the
+    parameters' and the weights') and ``gin`` (u, du, ddu). ``rhs_jac`` / ``out_jac`` hold the rest of the
+    Jacobians, with every network's outputs held: together they are the full chain rule."""
+    args = ["s", "u", "du", "ddu", "th", "w", "lam", "gth", "gin", "buf"]
+    head, targets, tail = [], [], []
+    for k, net in enumerate(eq.networks):
+        dfdn = [(f"dfdn{k}[{i}, {j}]", sp.diff(e, o)) for i, e in enumerate(exprs) for j, o in enumerate(net.outputs)]
+        if all(e == 0 for _, e in dfdn):
+            continue  # these expressions do not read this network
+        n_in, n_out = net.widths[0], net.widths[-1]
+        head += [f"    dfdn{k} = np.zeros(({len(exprs)}, {n_out}))",
+                 f"    dins{k} = np.zeros(({n_in}, {len(eq.state)}))",
+                 f"    dinth{k} = np.zeros(({n_in}, {len(eq.params)}))",
+                 f"    dinin{k} = np.zeros(({n_in}, 3))"]
+        targets += dfdn
+        for a, e in enumerate(net.inputs):
+            targets += [(f"dins{k}[{a}, {r}]", sp.diff(e, x)) for r, x in enumerate(eq.state)]
+            targets += [(f"dinth{k}[{a}, {p}]", sp.diff(e, x)) for p, x in enumerate(eq.params)]
+            targets += [(f"dinin{k}[{a}, {q}]", sp.diff(e, x)) for q, x in enumerate(eq.inputs)]
+        tail.append(f"    _network_vjp(w, dfdn{k}, dins{k}, dinth{k}, dinin{k}, th, {net.offset}, {tuple(net.widths)}, "
+                    f"{_ACTIVATIONS[net.activation]}, Z{k}, A{k}, lam, gth, gin)")
+    targets = [(t, e) for t, e in targets if e != 0]  # the arrays start at zero
+    return _kernel(name, args, targets, printer, eq, head=head, tail=tail, evaluate=False)
 
 
 def generate_source(eq: Equations) -> str:
@@ -76,11 +149,15 @@ def generate_source(eq: Equations) -> str:
         f"S, P, O = {n_state}, {n_param}, {n_out}",
         f"PARALLEL = {bool(PARALLEL)}",
         f"HAS_BOUNDS = {eq.lower is not None}",
+        f"NETS = {bool(eq.networks)}",
+        f"NB = {max(_buffer_layout(eq)[1], 1)}  # the networks' layer values at one point",
         _kernel("bounds", args + ["lo", "hi", "dlo", "dhi"], b_full, printer, eq),
-        _kernel("rhs", args + ["f"], f_t, printer, eq),
-        _kernel("rhs_jac", args + ["f", "fs", "fth", "fin"], f_full, printer, eq),
-        _kernel("out", args + ["g"], g_t, printer, eq),
-        _kernel("out_jac", args + ["g", "gs", "gth", "gin"], g_full, printer, eq),
+        _kernel("rhs", args + ["f", "buf"], f_t, printer, eq),
+        _kernel("rhs_jac", args + ["f", "fs", "fth", "fin", "buf"], f_full, printer, eq),
+        _kernel("out", args + ["g", "buf"], g_t, printer, eq),
+        _kernel("out_jac", args + ["g", "gs", "gth", "gin", "buf"], g_full, printer, eq),
+        _network_adjoint("rhs_net_vjp", eq.rhs, printer, eq),
+        _network_adjoint("out_net_vjp", eq.outputs, printer, eq),
         LOOPS,
     ]
     return "\n\n\n".join(parts) + "\n"
@@ -107,9 +184,15 @@ _MODULES: dict[str, object] = {}
 PARALLEL = os.environ.get("HYBRIDHYST_FAST_PARALLEL", "0") == "1"
 
 
+# the generator's own source: a changed template or kernel generator must not find the sources it wrote before
+_GENERATOR = hashlib.sha1(Path(__file__).read_bytes()).hexdigest()[:16]
+
+
 def _equations_key(eq: Equations) -> str:
-    """A hash of the equations themselves (cheap next to generating their source: CSE and Jacobians)."""
-    text = repr((eq.state, eq.inputs, eq.params, eq.rhs, eq.outputs, eq.lower, eq.upper, PARALLEL))
+    """A hash of the equations themselves (cheap next to generating their source: CSE and Jacobians) and of
+    this generator."""
+    text = repr((eq.state, eq.inputs, eq.params, eq.rhs, eq.outputs, eq.lower, eq.upper, eq.networks, PARALLEL,
+                 _GENERATOR))
     return hashlib.sha1(text.encode()).hexdigest()[:16]
 
 
@@ -172,7 +255,99 @@ def _abs_pow(z, n):
 @njit(cache=True, inline='always', error_model='numpy')
 def _abs_pow_log(z, n):
     a = abs(z)
-    return a ** n * math.log(a) if a > 0 else 0.0'''
+    return a ** n * math.log(a) if a > 0 else 0.0
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def _act(z, kind):
+    """Activation by code: 0 tanh, 1 relu, 2 gelu (erf), 3 silu, 4 elu (as torch.nn)."""
+    if kind == 0:
+        return math.tanh(z)
+    if kind == 1:
+        return z if z > 0.0 else 0.0
+    if kind == 2:
+        return 0.5 * z * (1.0 + math.erf(z / math.sqrt(2.0)))
+    if kind == 3:
+        return z / (1.0 + math.exp(-z))
+    return z if z > 0.0 else math.exp(z) - 1.0
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def _dact(z, a, kind):
+    """Derivative of the activation at z (a = its value), with torch's conventions at the kinks."""
+    if kind == 0:
+        return 1.0 - a * a
+    if kind == 1:
+        return 1.0 if z > 0.0 else 0.0
+    if kind == 2:
+        return 0.5 * (1.0 + math.erf(z / math.sqrt(2.0))) + z * math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
+    if kind == 3:
+        sg = 1.0 / (1.0 + math.exp(-z))
+        return sg * (1.0 + z * (1.0 - sg))
+    return 1.0 if z > 0.0 else math.exp(z)
+
+
+@njit(cache=True, error_model='numpy')
+def _mlp_forward(x, th, off, widths, act, Z, A):
+    """An MLP (torch layout: per layer its weight (out, in) row by row, then its bias, from th[off]) at x:
+    Z[l] before and A[l + 1] after layer l's activation (none after the last); A[0] = x."""
+    L = len(widths) - 1
+    for i in range(widths[0]):
+        A[0, i] = x[i]
+    o = off
+    for l in range(L):
+        a, b = widths[l], widths[l + 1]
+        for j in range(b):
+            acc = th[o + a * b + j]
+            for i in range(a):
+                acc += th[o + j * a + i] * A[l, i]
+            Z[l, j] = acc
+            A[l + 1, j] = acc if l == L - 1 else _act(acc, act)
+        o += (a + 1) * b
+
+
+@njit(cache=True, error_model='numpy')
+def _network_vjp(w, dfdn, dins, dinth, dinin, th, off, widths, act, Z, A, lam, gth, gin):
+    """Back-propagate v = dfdn^T w through the MLP evaluated in Z, A: its weights' gradient into gth[off:],
+    its inputs' gradient through their Jacobians into lam (state), gth[:P] (parameters) and gin (inputs)."""
+    L = len(widths) - 1
+    width = A.shape[1]
+    g = np.zeros(width)
+    gp = np.zeros(width)
+    for j in range(widths[L]):
+        acc = 0.0
+        for i in range(dfdn.shape[0]):
+            acc += dfdn[i, j] * w[i]
+        g[j] = acc
+    offs = np.empty(L, np.int64)
+    o = off
+    for l in range(L):
+        offs[l] = o
+        o += (widths[l] + 1) * widths[l + 1]
+    for l in range(L - 1, -1, -1):
+        a, b = widths[l], widths[l + 1]
+        o = offs[l]
+        for i in range(a):
+            gp[i] = 0.0
+        for j in range(b):
+            gj = g[j]
+            if gj != 0.0:
+                gth[o + a * b + j] += gj
+                for i in range(a):
+                    gth[o + j * a + i] += gj * A[l, i]
+                    gp[i] += th[o + j * a + i] * gj
+        if l > 0:
+            for i in range(a):
+                g[i] = gp[i] * _dact(Z[l - 1, i], A[l, i], act)
+    for a in range(widths[0]):
+        ga = gp[a]
+        if ga != 0.0:
+            for r in range(dins.shape[1]):
+                lam[r] += ga * dins[a, r]
+            for p in range(dinth.shape[1]):
+                gth[p] += ga * dinth[a, p]
+            for q in range(3):
+                gin[q] += ga * dinin[a, q]'''
 
 LOOPS = '''@njit(cache=True, parallel=PARALLEL, error_model='numpy')
 def forward(U, h, th, s0, c, A, bw, sub, states, y):
@@ -183,10 +358,11 @@ def forward(U, h, th, s0, c, A, bw, sub, states, y):
 
 
 @njit(cache=True, parallel=PARALLEL, error_model='numpy')
-def backward(U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
-    """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy. Rows in parallel."""
+def backward(U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
+    """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy and dL/d(states at the
+    samples). Rows in parallel."""
     for b in prange(U.shape[0]):
-        backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0)
+        backward_row(b, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0)
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -208,12 +384,12 @@ def stage_input(U, b, k, fr):
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub):
+def substep(b, k, m, st, K, Y, hk, U, th, c, A, bw, sub, buf):
     """Advance ``st`` in place by sub-step m of interval k."""
     for j in range(c.shape[0]):
         stage_state(st, K, j, hk, A, Y)
         uu, dd, aa = stage_input(U, b, k, (m + c[j]) / sub)
-        rhs(Y, uu, dd, aa, th[b], K[j])
+        rhs(Y, uu, dd, aa, th[b], K[j], buf)
     for i in range(S):
         acc = 0.0
         for j in range(c.shape[0]):
@@ -240,6 +416,7 @@ def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     T = U.shape[1]
     K = np.zeros((c.shape[0], S))
     Y = np.zeros(S)
+    buf = np.zeros(NB)
     st = s0[b].copy()
     g = np.zeros(O)
     lo, hi, fl = np.zeros(S), np.zeros(S), np.zeros(S)
@@ -249,17 +426,17 @@ def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     states[b, 0, :] = st
     for k in range(T - 1):
         for m in range(sub):
-            substep(b, k, m, st, K, Y, h[b, k] / sub, U, th, c, A, bw, sub)
+            substep(b, k, m, st, K, Y, h[b, k] / sub, U, th, c, A, bw, sub, buf)
             if HAS_BOUNDS:
                 project(st, lo, hi, fl)
         states[b, k + 1, :] = st
     for k in range(T):
-        out(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g)
+        out(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, buf)
         y[b, k, :] = g
 
 
 @njit(cache=True, error_model='numpy')
-def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
+def backward_row(b, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
     T = U.shape[1]
     nst = c.shape[0]
     lam = np.zeros(S)
@@ -276,6 +453,9 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
     sub_start = np.zeros((sub, S))
     lamK = np.zeros((nst, S))
     lamY = np.zeros(S)
+    UIN = np.zeros((nst, 3))
+    buf = np.zeros((nst + 1, NB))  # the networks' layers at each stage (the last row: at the sample)
+    gin = np.zeros(3)
     st = np.zeros(S)
     lo, hi, flags = np.zeros(S), np.zeros(S), np.zeros((sub, S))
     dlo, dhi = np.zeros((S, P)), np.zeros((S, P))
@@ -283,7 +463,7 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
         bounds(states[b, 0], 0.0, 0.0, 0.0, th[b], lo, hi, dlo, dhi)
     for k in range(T - 1, -1, -1):
         # output y_k = g(s_k, U_k, th)
-        out_jac(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, gs, gt, gi)
+        out_jac(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, gs, gt, gi, buf[nst])
         for o in range(O):
             w = gy[b, k, o]
             if w != 0.0:
@@ -293,17 +473,28 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
                     gth[b, p] += gt[o, p] * w
                 for q in range(3):
                     gU[b, k, q] += gi[o, q] * w
+        for i in range(S):  # the states' own cotangent (return_states)
+            lam[i] += gS[b, k, i]
+        if NETS:  # the networks' share of the output's adjoint
+            gin[:] = 0.0
+            out_net_vjp(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], gy[b, k], lam, gth[b], gin,
+                        buf[nst])
+            for q in range(3):
+                gU[b, k, q] += gin[q]
         if k == 0:
             break
         kk = k - 1
         hk = h[b, kk] / sub
-        # recover the start state of every sub-step of interval kk
+        # recover the start state of every sub-step of interval kk (one sub-step without bounds: the sample's)
         st[:] = states[b, kk]
-        for m in range(sub):
-            sub_start[m, :] = st
-            substep(b, kk, m, st, K, Y, hk, U, th, c, A, bw, sub)
-            if HAS_BOUNDS:
-                project(st, lo, hi, flags[m])
+        if sub == 1 and not HAS_BOUNDS:
+            sub_start[0, :] = st
+        else:
+            for m in range(sub):
+                sub_start[m, :] = st
+                substep(b, kk, m, st, K, Y, hk, U, th, c, A, bw, sub, buf[0])
+                if HAS_BOUNDS:
+                    project(st, lo, hi, flags[m])
         for m in range(sub - 1, -1, -1):
             if HAS_BOUNDS:  # adjoint of the projection: a state held at a bound follows the bound
                 for i in range(S):
@@ -315,7 +506,8 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
             for j in range(nst):
                 stage_state(sub_start[m], K, j, hk, A, Yst[j])
                 uu, dd, aa = stage_input(U, b, kk, (m + c[j]) / sub)
-                rhs_jac(Yst[j], uu, dd, aa, th[b], K[j], FS[j], FT[j], FI[j])
+                UIN[j, 0], UIN[j, 1], UIN[j, 2] = uu, dd, aa
+                rhs_jac(Yst[j], uu, dd, aa, th[b], K[j], FS[j], FT[j], FI[j], buf[j])
             # adjoint of s' = s + hk sum_j bw_j K_j, K_j = f(Y_j), Y_j = s + hk sum_l A_jl K_l
             for j in range(nst):
                 for i in range(S):
@@ -338,6 +530,13 @@ def backward_row(b, U, h, th, states, gy, c, A, bw, sub, gth, gU, gs0):
                         acc += FI[j, r, q] * lamK[j, r]
                     gU[b, kk, q] += acc * (1.0 - fr)
                     gU[b, kk + 1, q] += acc * fr
+                if NETS:  # the networks' share: their weights, and through their inputs the state's adjoint
+                    gin[:] = 0.0
+                    rhs_net_vjp(Yst[j], UIN[j, 0], UIN[j, 1], UIN[j, 2], th[b], lamK[j], lamY, gth[b], gin,
+                                buf[j])
+                    for q in range(3):
+                        gU[b, kk, q] += gin[q] * (1.0 - fr)
+                        gU[b, kk + 1, q] += gin[q] * fr
                 for l in range(j):
                     for i in range(S):
                         lamK[l, i] += hk * A[j, l] * lamY[i]

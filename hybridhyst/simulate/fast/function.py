@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from ...physics.effects.neural import NeuralEffect
 from ..fixed import TABLEAUX
 from .codegen import compile_equations
 from .equations import build_equations
@@ -12,15 +13,32 @@ from .equations import build_equations
 _COMPILED: dict[int, tuple] = {}
 
 
+def _constants(model) -> tuple:
+    """What the equations hold as constants beyond the structure: the networks' scales and condition
+    statistics (buffers a state dict may overwrite) and layer sizes."""
+    return tuple((key, tuple(b.tolist() for b in e.buffers()), tuple(e.net.layers()[0].weight.shape))
+                 for key, e in model.effects.items() if isinstance(e, NeuralEffect))
+
+
 def compiled(model):
-    """(equations, generated module) for a model, cached per model instance."""
+    """(equations, generated module) for a model, cached per model instance (and its networks' constants)."""
     key = id(model)
     hit = _COMPILED.get(key)
-    if hit is None or hit[0] is not model:
+    constants = _constants(model)
+    if hit is None or hit[0] is not model or hit[1] != constants:
         eq = build_equations(model)
-        hit = (model, eq, compile_equations(eq))
+        hit = (model, constants, eq, compile_equations(eq))
         _COMPILED[key] = hit
-    return hit[1], hit[2]
+    return hit[2], hit[3]
+
+
+def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
+    """``(batch, P + weights)``: each row's parameter values, then every network's weights (shared)."""
+    cols = [torch.stack([P[key][name].expand(B) for key, name in eq.param_keys], dim=1)] if eq.param_keys else []
+    for net in eq.networks:
+        flat = torch.cat([t.reshape(-1) for lin in model.effects[net.key].net.layers() for t in (lin.weight, lin.bias)])
+        cols.append(flat.to(dtype=like.dtype, device=like.device).expand(B, -1))
+    return torch.cat(cols, dim=1) if cols else like.new_zeros(B, 0)
 
 
 def _tableau(method: str):
@@ -46,20 +64,23 @@ class _FastSimulate(torch.autograd.Function):
         y = np.empty((B, T, output_dim))
         module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
         ctx.save_for_backward(theta, U, s0)
-        ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module)
+        ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module, y.shape)
         S = torch.from_numpy(states).to(dtype=U.dtype, device=U.device)
-        ctx.mark_non_differentiable(S)
         return torch.from_numpy(y).to(dtype=U.dtype, device=U.device), S
 
     @staticmethod
-    def backward(ctx, gy, _gs=None):
+    def backward(ctx, gy, gs=None):
         theta, U, s0 = ctx.saved_tensors
-        Un, hn, th, states, c, A, bw, sub, module = ctx.numpy
-        gyn = gy.detach().to(torch.float64).cpu().numpy()
+        Un, hn, th, states, c, A, bw, sub, module, y_shape = ctx.numpy
+
+        def numpy(g, shape):
+            return np.zeros(shape) if g is None else np.ascontiguousarray(g.detach().to(torch.float64).cpu().numpy())
+
         gth = np.zeros_like(th)
         gU = np.zeros_like(Un)
         gs0 = np.zeros((th.shape[0], states.shape[2]))
-        module.backward(Un, hn, th, states, np.ascontiguousarray(gyn), c, A, bw, sub, gth, gU, gs0)
+        module.backward(Un, hn, th, states, numpy(gy, y_shape), numpy(gs, states.shape), c, A, bw, sub,
+                        gth, gU, gs0)
 
         def back(arr, like):
             return torch.from_numpy(arr).to(dtype=like.dtype, device=like.device)
@@ -71,15 +92,14 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
                   substeps: int = 1, return_states: bool = False):
     """Outputs ``(batch, time, output_dim)`` of the compiled loop; differentiable like the reference.
 
-    With ``return_states`` also the states ``(batch, time, state_dim)`` at the samples, as constants (no
-    gradient flows through them; gradients of the outputs are exact as always).
+    With ``return_states`` also the states ``(batch, time, state_dim)`` at the samples, differentiable like
+    the outputs (their cotangent enters the same discrete adjoint).
     """
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
     eq, module = compiled(model)
     B = U.shape[0]
-    theta = torch.stack([P[key][name].expand(B) for key, name in eq.param_keys], dim=1) if eq.param_keys \
-        else U.new_zeros(B, 0)
+    theta = _theta(eq, P, model, B, U)
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1).contiguous()  # (batch, time - 1): each row its own grid
     y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
                                     model.output_dim)
