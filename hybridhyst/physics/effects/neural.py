@@ -45,8 +45,9 @@ class NeuralEffect(Effect):
     not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
     latent_states)``. Both backends run it: on the compiled fast path the network is a generated numba
     kernel whose weights are coordinates of the exact discrete adjoint (``simulate.fast``), on the
-    reference loop it is the torch module; the scales and condition statistics are constants of the
-    compiled equations, so change them by building a new effect.
+    reference loop it is the torch module (in the weights' dtype; the compiled path computes in float64).
+    The scales and condition statistics are constants of the generated code: changing them (a state dict)
+    rebuilds it on the next call.
     Source: universal differential equations (Rackauckas et al., arXiv:2001.04385, 2020); model
     augmentation (Beintema, Schoukens, Tóth, "Deep subspace encoders for nonlinear system identification",
     Automatica 156, 2023).

@@ -14,10 +14,17 @@ _COMPILED: dict[int, tuple] = {}
 
 
 def _constants(model) -> tuple:
-    """What the equations hold as constants beyond the structure: the networks' scales and condition
-    statistics (buffers a state dict may overwrite) and layer sizes."""
-    return tuple((key, tuple(b.tolist() for b in e.buffers()), tuple(e.net.layers()[0].weight.shape))
-                 for key, e in model.effects.items() if isinstance(e, NeuralEffect))
+    """What the generated code holds beyond the parameter values: which effect objects it was built from, and
+    for networks their layer shapes, activation, inputs and buffers (scales and condition statistics, which a
+    state dict may overwrite in place)."""
+    out = []
+    for key, e in model.effects.items():
+        entry = (key, id(e), tuple(tuple(b.reshape(-1).tolist()) for b in e.buffers()))
+        if isinstance(e, NeuralEffect):
+            entry += (id(e.net), tuple(tuple(lin.weight.shape) for lin in e.net.layers()), e.net.activation,
+                      e.inputs, e.condition_names)
+        out.append(entry)
+    return tuple(out)
 
 
 def compiled(model):
@@ -65,7 +72,7 @@ class _FastSimulate(torch.autograd.Function):
         module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
         ctx.save_for_backward(theta, U, s0)
         ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module, y.shape)
-        S = torch.from_numpy(states).to(dtype=U.dtype, device=U.device)
+        S = torch.from_numpy(states.copy()).to(dtype=U.dtype, device=U.device)  # the adjoint keeps its own
         return torch.from_numpy(y).to(dtype=U.dtype, device=U.device), S
 
     @staticmethod
