@@ -269,3 +269,11 @@ def test_returned_states_carry_gradients_on_both_backends(backend):
     assert all(s.abs().max() > 0 for s in states_only)
     for gr, gf in zip(g_ref, g):
         assert ((gf - gr).abs().max() / gr.abs().max()).item() < 1e-8
+
+
+def test_every_network_activation_has_a_compiled_kernel():
+    """An activation added to the networks must be added to the generated code's kernels too."""
+    from hybridhyst.nets.blocks import _ACTIVATIONS as NETWORK_ACTIVATIONS
+    from hybridhyst.simulate.fast.codegen import _ACTIVATIONS as KERNELS
+
+    assert set(KERNELS) == set(NETWORK_ACTIVATIONS)
