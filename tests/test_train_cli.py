@@ -148,6 +148,24 @@ def test_launcher_configs_instantiate(launcher, target):
     assert type(hydra_instantiate(cfg.hydra.launcher)).__name__ == target
 
 
+def test_dynamics_inputs_reach_the_network_inside_the_dynamics_and_only_it(tmp_path):
+    cfg = _compose([*SMOKE, "baseline=hybrid_dynamics", "dynamics_inputs=[x,u]", f"run_dir={tmp_path}"])
+    dm = train.build_datamodule(cfg)
+    module = train.build_module(cfg, dm)
+    assert module.net.inputs == ("x", "u") and module.net.net.body[0].in_features == 2 + 1 + len(dm.condition_names)
+    assert train.run_info(cfg)["dynamics_inputs"] == "x,u"
+    default = train.build_module(_compose([*SMOKE, "baseline=hybrid_dynamics", f"run_dir={tmp_path}"]), dm)
+    assert default.net.inputs == ("x", "v")
+    # an experiment config may set the key for every run it sweeps: the output branch and other modules ignore it
+    for baseline in ("hybrid_mlp", "physics"):
+        other = _compose([*SMOKE, f"baseline={baseline}", "dynamics_inputs=[x,u]", f"run_dir={tmp_path}"])
+        assert train.build_module(other, dm).n_parameters() > 0 and train.run_info(other)["dynamics_inputs"] is None
+    with pytest.raises(ValueError, match="dynamics_inputs belong to placement=dynamics"):
+        type(module)(module.nominal, dm.normaliser.to_dict(), hidden="1x4", dynamics_inputs=("x", "u"))
+    with pytest.raises(ValueError, match="unknown input"):
+        train.build_module(_compose([*SMOKE, "baseline=hybrid_dynamics", "dynamics_inputs=[x,w]"]), dm)
+
+
 @pytest.mark.parametrize("baseline", ["physics", "hybrid_mlp", "hybrid_lstm", "mlp", "lstm", "std_pinn"])
 def test_run_writes_the_run_directory(baseline, tmp_path):
     result = train.run(_compose([*SMOKE, f"baseline={baseline}", f"run_dir={tmp_path}"]))

@@ -90,7 +90,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
         module = MODULES[kind](nominal, residual=net.kind, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), features=list(cfg.features),
                                placement=str(cfg.placement),
-                               latent_states=int(cfg.latent_states), **encoder, **sim, **common)
+                               latent_states=int(cfg.latent_states), **dynamics_inputs(cfg), **encoder, **sim, **common)
     elif kind == "std_pinn":
         module = MODULES[kind](nominal, hidden=net.hidden, activation=net.activation,
                                freeze_nominal=bool(cfg.freeze_nominal), **sim, **common)
@@ -98,6 +98,14 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
         return MODULES[kind](hidden=net.hidden, activation=net.activation, features=list(cfg.features), **common)
     module.nominal_identified = identified  # identification summary (None without one), for metrics.json
     return module
+
+
+def dynamics_inputs(cfg: DictConfig) -> dict:
+    """``{"dynamics_inputs": (...)}`` for a hybrid whose network sits inside the dynamics; ``{}`` otherwise (the
+    key is read by ``placement=dynamics`` only, so an experiment config can set it for every run it sweeps)."""
+    if cfg.module != "hybrid" or cfg.get("placement") != "dynamics":
+        return {}
+    return {"dynamics_inputs": tuple(cfg.get("dynamics_inputs") or ("x", "v"))}
 
 
 def nominal_start(cfg: DictConfig) -> str | None:
@@ -214,6 +222,7 @@ def run_info(cfg: DictConfig) -> dict:
             "conditions": ",".join(cfg.datamodule.conditions),
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
             "placement": str(cfg.placement) if kind == "hybrid" else None,
+            "dynamics_inputs": ",".join(dynamics_inputs(cfg).get("dynamics_inputs", ())) or None,
             "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
             "encoder_past": encoder_past(cfg) if kind in ("physics", "hybrid") else None,
             "nominal_init": nominal_start(cfg), "lbfgs_steps": (lbfgs_settings(cfg) or {}).get("steps", 0),

@@ -105,7 +105,12 @@ class HybridModule(NominalMixin, SequenceModule):
     freeze_nominal : keep the nominal's parameters fixed (seed 003 trains the residual only).
     residual : "mlp" (pointwise, last layer zero-initialised) or "lstm" (output placement only); hidden :
         "4x128" etc.; activation : MLP activation (tanh as seed 003).
-    placement : "output" or "dynamics"; latent_states : the dynamics network's latent states (≥ 0).
+    placement : "output" or "dynamics"; latent_states : the dynamics network's latent states (≥ 0);
+        dynamics_inputs : what that network reads besides its latent states and the conditions, among "x", "v"
+        (the coordinates the nominal's effects act on), "u", "du" (the raw input and its rate). A network that
+        reads v adds damping of its own: in a model whose mass is only a regulariser (the quasi-static piezo
+        model of seed 003) that can make the fixed-step integration unstable (there 3 of 3 seeds diverged with
+        ("x", "v"), none with ("x", "u")).
     encoder_past, encoder_hidden : an MLP encoder of each training window's start state (the simulated model's:
         with ``placement="dynamics"`` the latent states included) from the ``encoder_past`` samples of (u, y)
         before it (``NominalMixin``); 0: none.
@@ -116,7 +121,7 @@ class HybridModule(NominalMixin, SequenceModule):
     def __init__(self, nominal, normaliser: dict, residual: str = "mlp", hidden="4x128", activation: str = "tanh",
                  freeze_nominal: bool = False, nominal_state: str | None = None, backend: str = "fast",
                  method: str = "rk4", substeps: int = 1, placement: str = "output", latent_states: int = 0,
-                 encoder_past: int = 0, encoder_hidden="2x32", **kw):
+                 dynamics_inputs=("x", "v"), encoder_past: int = 0, encoder_hidden="2x32", **kw):
         super().__init__(normaliser, **kw)
         if placement not in ("output", "dynamics"):
             raise ValueError(f"unknown placement {placement!r}; choose 'output' or 'dynamics'")
@@ -125,6 +130,9 @@ class HybridModule(NominalMixin, SequenceModule):
                              f"use residual=mlp (latent_states give it memory), not {residual!r}")
         if placement == "output" and int(latent_states):
             raise ValueError("latent_states belong to placement=dynamics; the output branch has none")
+        dynamics_inputs = tuple(dynamics_inputs)
+        if placement == "output" and dynamics_inputs != ("x", "v"):
+            raise ValueError("dynamics_inputs belong to placement=dynamics; the output branch reads `features`")
         self.placement, self.latent_states = placement, int(latent_states)
         if nominal_state:
             nominal.load_state_dict(load_nominal_state(nominal_state))
@@ -132,7 +140,7 @@ class HybridModule(NominalMixin, SequenceModule):
         self.residual_kind = residual
         if placement == "dynamics":
             conditions = {c: (self.norm.mean[c], self.norm.sd[c]) for c in self.condition_names}
-            self.net = NeuralEffect(("x", "v"), self.latent_states, hidden, activation,
+            self.net = NeuralEffect(dynamics_inputs, self.latent_states, hidden, activation,
                                     scales=neural_scales(nominal, self.norm), conditions=conditions)
             self.__dict__["_augmented"] = nominal.augmented({NEURAL: self.net})  # not a submodule: its parameters
         else:  # are registered as the nominal's and the net's
