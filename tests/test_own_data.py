@@ -148,6 +148,22 @@ def test_a_parameter_function_of_a_missing_condition_is_one_line(tmp_path, capsy
     assert "\n" not in err and "condition 'temperature_c'" in err and "model" in err, err
 
 
+@pytest.mark.parametrize("app", ["identify", "fit", "discover", "train"])
+def test_data_units_other_than_the_models_are_one_line(app, tmp_path, capsys):
+    """Nothing is converted: torque-angle loops labelled in rad (or with input and response swapped) for a law in
+    deg and Nm stop before any fitting, in every app."""
+    import importlib
+
+    module = importlib.import_module(f"hybridhyst.cli.{app}")
+    for units in ("{t: s, x: rad, y: Nm}", "{t: s, x: Nm, y: deg}"):
+        cfg = _compose(app, tmp_path, f"data.units={units}")
+        with pytest.raises(SystemExit) as exc:
+            guarded(module.run, cfg)
+        assert exc.value.code == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "works in input 'deg', response 'Nm'" in err and "nothing is converted" in err, err
+
+
 @pytest.mark.slow
 def test_the_documented_discover_command_finds_the_pressure_trends(tmp_path):
     """The README command as it stands (about 20 s here): trends in pressure_mpa take the held-out RMSE to

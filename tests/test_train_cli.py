@@ -252,3 +252,18 @@ def test_multirun_keeps_the_other_jobs_when_one_fails_and_the_report_lists_it(tm
     assert report.returncode == 0, report.stderr
     text = (tmp_path / "report" / "report.md").read_text()
     assert "lambda_phys must be >= 0" in text and "hybrid-mlp" in text
+
+
+def test_summary_tells_a_kept_start_from_the_trained_model_and_small_metrics_show_in_the_progress_bar(tmp_path):
+    info = {"name": "hybrid-dynamics", "epochs": 3, "train_time_s": 1.0, "units": {"F": "m"}, "evaluated": "best"}
+    result = {"info": info, "train": {"rmse": 2.8e-4}, "val": {}, "test": {"rmse": 5e-4},
+              "start": {"split": "train", "rmse": 0.00027979, "trained_rmse": 0.00027981, "restored": True}}
+    text = train.summary(result, tmp_path)
+    assert "RMSE 0.00027981 m is above the starting model's 0.00027979 m" in text  # not 0.0002798 twice
+    result["start"]["trained_rmse"] = None  # a diverged run (JSON null)
+    assert "RMSE inf m is above" in train.summary(result, tmp_path)
+    pytest.importorskip("rich")  # without rich Lightning's tqdm bar prints significant figures already
+    trainer = train.build_trainer(_compose([*SMOKE, f"run_dir={tmp_path}", "trainer.enable_progress_bar=true"]),
+                                  tmp_path)
+    bars = [c for c in trainer.callbacks if type(c).__name__ == "RichProgressBar"]
+    assert len(bars) == 1 and f"{2.8e-4:{bars[0].theme.metrics_format}}" == "0.00028"

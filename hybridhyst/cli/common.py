@@ -34,6 +34,7 @@ from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for t
 from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
     check_kwargs,
     check_model_conditions,
+    check_model_units,
     instantiate,
     load_records,
     split_options,
@@ -45,6 +46,7 @@ __all__ = [
     "atomic_write",
     "check_kwargs",
     "check_model_conditions",
+    "check_model_units",
     "config_error_message",
     "guarded",
     "hydra_entry",

@@ -24,6 +24,7 @@ from .common import (
     CONF_DIR,
     check_app,
     check_kwargs,
+    check_model_units,
     guarded,
     hydra_entry,
     instantiate,
@@ -89,6 +90,7 @@ def run(cfg: DictConfig) -> dict:
         records, parts = load_split(cfg)
         conditions = to_plain(d.conditions)  # checked by discover, before any fitting
         model = instantiate(cfg.model, _convert_="all").double()
+        check_model_units(model, records)
         split = split_options(cfg, ("held_out", "val"))
         from ..identify import identify
 

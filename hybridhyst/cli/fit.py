@@ -25,6 +25,7 @@ from .common import (
     atomic_write,
     check_app,
     check_model_conditions,
+    check_model_units,
     guarded,
     hydra_entry,
     instantiate,
@@ -154,6 +155,7 @@ def run(cfg: DictConfig) -> dict:
         train, held_out = load_split(cfg)
         model = instantiate(cfg.model, _convert_="all")
         check_model_conditions(model, [*train, *held_out])
+        check_model_units(model, [*train, *held_out])
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)

@@ -24,6 +24,7 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_model_conditions,
+    check_model_units,
     guarded,
     hydra_entry,
     identify_options,
@@ -119,6 +120,7 @@ def run(cfg: DictConfig) -> dict:
         records = _load(cfg)
         model = instantiate(cfg.model, _convert_="all")
         check_model_conditions(model, records)
+        check_model_units(model, records)
         result = _identify(model, records, cfg)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,

@@ -271,10 +271,22 @@ def summary(result: dict, run_dir: Path, resumed: str | None = None) -> str:
     kept = bool(floor and floor["restored"])
     lines.append(row(f"{info['name']} ({'start' if kept else info['evaluated']})", result))
     if kept:
-        lines.append(f"  the trained model's {floor['split']} RMSE {floor['trained_rmse']:.4g} {unit} is above the "
-                     f"starting model's {floor['rmse']:.4g} {unit}: the starting weights are kept")
+        trained, start = _distinct(floor["trained_rmse"], floor["rmse"])
+        lines.append(f"  the trained model's {floor['split']} RMSE {trained} {unit} is above the "
+                     f"starting model's {start} {unit}: the starting weights are kept")
     lines.append(f"  run dir: {run_dir}")
     return "\n".join(lines)
+
+
+def _distinct(a, b) -> tuple[str, str]:
+    """``a`` and ``b`` with as many significant figures (4 to 12) as it takes to tell them apart; None is inf
+    (a diverged run's RMSE, which JSON stores as null)."""
+    a, b = (math.inf if v is None else float(v) for v in (a, b))
+    for digits in range(4, 13):
+        sa, sb = f"{a:.{digits}g}", f"{b:.{digits}g}"
+        if sa != sb:
+            break
+    return sa, sb
 
 
 def _rmse(m) -> str:

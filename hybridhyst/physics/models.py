@@ -107,6 +107,15 @@ class NominalModel(nn.Module):
             }
         return out
 
+    def data_units(self) -> dict[str, str]:
+        """The units a record's input and response columns (``Record.units`` "x", "y") must have for this model,
+        where the model declares them: ``{}`` for units left symbolic (the default "x", "F", "u")."""
+        want = dict(zip(("x", "y"), self._data_channels()))
+        return {k: self.units[name] for k, name in want.items() if name and self.units.get(name, name) != name}
+
+    def _data_channels(self) -> tuple[str | None, str | None]:
+        return "x", "F"
+
     def parameter_table(self) -> dict[str, dict[str, dict]]:
         """{effect: {parameter: {"value": float or text, "unit": str, "fixed": bool}}} for reports: constant
         parameters give a number, condition-dependent ones their description (e.g. a polynomial)."""
@@ -306,6 +315,9 @@ class DrivenOscillator(NominalModel):
     @property
     def output_dim(self) -> int:
         return len(self.outputs)
+
+    def _data_channels(self):  # the input is the drive u (a force or a base motion); velocity/acceleration outputs
+        return "u", {"x": "x", "force": "F"}.get(self.outputs[0])  # have derived units and are not checked
 
     def kinematics(self, state, inp):
         return self._kinematics(state, inp)

@@ -17,7 +17,15 @@ from omegaconf import DictConfig
 from ..data.datamodule import RecordDataModule
 from ..nets import parse_hidden
 from .callbacks import LoopFigures
-from .config import check_kwargs, check_model_conditions, instantiate, load_records, split_options, to_plain
+from .config import (
+    check_kwargs,
+    check_model_conditions,
+    check_model_units,
+    instantiate,
+    load_records,
+    split_options,
+    to_plain,
+)
 from .modules import MODULES, load_nominal_state
 
 __all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "encoder_past", "nominal_start",
@@ -72,6 +80,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
         check_model_conditions(nominal, dm.split, "model")
+        check_model_units(nominal, dm.split)
         if cfg.get("nominal_state"):
             nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
         identified, start = None, nominal_start(cfg)
@@ -191,6 +200,8 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
         logger = CSVLogger(save_dir=str(run_dir), name="csv", version=version)
     elif cfg.logger.kind != "none":
         raise ValueError(f"unknown logger {cfg.logger.kind!r}; choose tensorboard, csv or none")
+    if bool(t.enable_progress_bar):
+        callbacks.extend(_progress_bar())
     extra = to_plain(t.get("extra")) or {}
     stage = {"max_epochs": int(t.max_epochs), "gradient_clip_val": t.gradient_clip_val,
              "check_val_every_n_epoch": int(t.check_val_every_n_epoch)}
@@ -203,6 +214,19 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
                      limit_val_batches=t.limit_val_batches, enable_progress_bar=bool(t.enable_progress_bar),
                      enable_model_summary=False, default_root_dir=str(run_dir), logger=logger, callbacks=callbacks,
                      **stage, **extra)
+
+
+def _progress_bar() -> list:
+    """Lightning's rich progress bar with metrics in significant figures: its default, three decimals, shows an
+    RMSE in metres as 0.000. Empty without ``rich``: Lightning's tqdm bar is used, which prints three
+    significant figures already."""
+    try:
+        from lightning.pytorch.callbacks import RichProgressBar
+        from lightning.pytorch.callbacks.progress.rich_progress import RichProgressBarTheme
+
+        return [RichProgressBar(theme=RichProgressBarTheme(metrics_format=".4g"))]
+    except (ImportError, ModuleNotFoundError):
+        return []
 
 
 def run_info(cfg: DictConfig) -> dict:

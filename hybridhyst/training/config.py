@@ -11,7 +11,8 @@ import difflib
 import inspect
 from collections.abc import Callable
 
-__all__ = ["check_kwargs", "check_model_conditions", "instantiate", "load_records", "split_options", "to_plain"]
+__all__ = ["check_kwargs", "check_model_conditions", "check_model_units", "instantiate", "load_records",
+           "split_options", "to_plain"]
 
 SPLIT_KEYS = ("select", "held_out", "val")
 
@@ -110,3 +111,23 @@ def check_model_conditions(model, split, what: str = "model") -> None:
     if names:
         parts = split if isinstance(split, Split) else Split(list(split), [], [])
         check_conditions(parts, names, f"{what} (a parameter as a function of a condition)")
+
+
+def check_model_units(model, records, what: str = "model") -> None:
+    """The records' input and response units (``Record.units`` "x", "y") are the ones the model declares
+    (``NominalModel.data_units``; nothing is converted); else a one-line ``ValueError``. Units the model leaves
+    symbolic, and records without units, are not checked."""
+    from ..data.splits import Split
+
+    want = model.data_units()
+    parts = [p for p in records if p is not None] if isinstance(records, Split) else [records]
+    for record in (r for part in parts for r in part):
+        have = {k: record.units.get(k) for k in want}
+        bad = {k: v for k, v in have.items() if v is not None and v != want[k]}
+        if bad:
+            label = {"x": "input", "y": "response"}
+            got = ", ".join(f"{label[k]} {have[k]!r}" for k in want)
+            need = ", ".join(f"{label[k]} {want[k]!r}" for k in want)
+            raise ValueError(f"record {record.name!r} has units {got} but the {what} {model.name!r} works in {need}: "
+                             "nothing is converted; give data.units in the model's units (data.units.x is the input "
+                             "column's, data.units.y the response's) or convert the data")
