@@ -33,8 +33,7 @@ from ..files import (  # noqa: F401 (the apps' run-directory I/O)
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
 from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
     check_kwargs,
-    check_model_conditions,
-    check_model_units,
+    check_model_data,
     instantiate,
     load_records,
     split_options,
@@ -45,8 +44,7 @@ __all__ = [
     "CONF_DIR",
     "atomic_write",
     "check_kwargs",
-    "check_model_conditions",
-    "check_model_units",
+    "check_model_data",
     "config_error_message",
     "guarded",
     "hydra_entry",

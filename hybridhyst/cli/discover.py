@@ -24,7 +24,7 @@ from .common import (
     CONF_DIR,
     check_app,
     check_kwargs,
-    check_model_units,
+    check_model_data,
     guarded,
     hydra_entry,
     instantiate,
@@ -90,7 +90,7 @@ def run(cfg: DictConfig) -> dict:
         records, parts = load_split(cfg)
         conditions = to_plain(d.conditions)  # checked by discover, before any fitting
         model = instantiate(cfg.model, _convert_="all").double()
-        check_model_units(model, records)
+        check_model_data(model, records)  # before the first fit (the loop checks the conditions again)
         split = split_options(cfg, ("held_out", "val"))
         from ..identify import identify
 

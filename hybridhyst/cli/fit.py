@@ -24,8 +24,7 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
-    check_model_conditions,
-    check_model_units,
+    check_model_data,
     guarded,
     hydra_entry,
     instantiate,
@@ -154,8 +153,7 @@ def run(cfg: DictConfig) -> dict:
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         train, held_out = load_split(cfg)
         model = instantiate(cfg.model, _convert_="all")
-        check_model_conditions(model, [*train, *held_out])
-        check_model_units(model, [*train, *held_out])
+        check_model_data(model, [*train, *held_out])
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)

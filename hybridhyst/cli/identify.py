@@ -23,8 +23,7 @@ from ..simulate import simulate
 from .common import (
     CONF_DIR,
     atomic_write,
-    check_model_conditions,
-    check_model_units,
+    check_model_data,
     guarded,
     hydra_entry,
     identify_options,
@@ -119,8 +118,7 @@ def run(cfg: DictConfig) -> dict:
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         records = _load(cfg)
         model = instantiate(cfg.model, _convert_="all")
-        check_model_conditions(model, records)
-        check_model_units(model, records)
+        check_model_data(model, records)
         result = _identify(model, records, cfg)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,

@@ -17,15 +17,7 @@ from omegaconf import DictConfig
 from ..data.datamodule import RecordDataModule
 from ..nets import parse_hidden
 from .callbacks import LoopFigures
-from .config import (
-    check_kwargs,
-    check_model_conditions,
-    check_model_units,
-    instantiate,
-    load_records,
-    split_options,
-    to_plain,
-)
+from .config import check_kwargs, check_model_data, instantiate, load_records, split_options, to_plain
 from .modules import MODULES, load_nominal_state
 
 __all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "encoder_past", "nominal_start",
@@ -79,8 +71,7 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     encoder = {"encoder_past": encoder_past(cfg), "encoder_hidden": (cfg.get("encoder") or {}).get("hidden", "2x32")}
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
-        check_model_conditions(nominal, dm.split, "model")
-        check_model_units(nominal, dm.split)
+        check_model_data(nominal, dm.split, "model")
         if cfg.get("nominal_state"):
             nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
         identified, start = None, nominal_start(cfg)
@@ -225,7 +216,7 @@ def _progress_bar() -> list:
         from lightning.pytorch.callbacks.progress.rich_progress import RichProgressBarTheme
 
         return [RichProgressBar(theme=RichProgressBarTheme(metrics_format=".4g"))]
-    except (ImportError, ModuleNotFoundError):
+    except ImportError:
         return []
 
 

@@ -11,8 +11,7 @@ import difflib
 import inspect
 from collections.abc import Callable
 
-__all__ = ["check_kwargs", "check_model_conditions", "check_model_units", "instantiate", "load_records",
-           "split_options", "to_plain"]
+__all__ = ["check_kwargs", "check_model_data", "instantiate", "load_records", "split_options", "to_plain"]
 
 SPLIT_KEYS = ("select", "held_out", "val")
 
@@ -100,31 +99,22 @@ def load_records(cfg, select=None, where: str = "split.select"):
     return records
 
 
-def check_model_conditions(model, split, what: str = "model") -> None:
-    """Every record of ``split`` (``Split`` or a record set) has the conditions the model's parameter functions
-    need (``physics.models.conditions_used``), as numbers; else a one-line ``ValueError`` naming the condition
-    and records."""
+def check_model_data(model, split, what: str = "model") -> None:
+    """Every record of ``split`` (``Split`` or a record set) fits the model, else a one-line ``ValueError``: it has
+    the conditions the model's parameter functions need (``physics.models.conditions_used``), as numbers, and the
+    input and response units (``Record.units`` "x", "y") the model declares (``NominalModel.data_units``; nothing
+    is converted). Units the model leaves symbolic, and records without units, are not checked."""
     from ..data.splits import Split, check_conditions
     from ..physics.models import conditions_used
 
+    parts = split if isinstance(split, Split) else Split(list(split), [], [])
     names = conditions_used(model)
     if names:
-        parts = split if isinstance(split, Split) else Split(list(split), [], [])
         check_conditions(parts, names, f"{what} (a parameter as a function of a condition)")
-
-
-def check_model_units(model, records, what: str = "model") -> None:
-    """The records' input and response units (``Record.units`` "x", "y") are the ones the model declares
-    (``NominalModel.data_units``; nothing is converted); else a one-line ``ValueError``. Units the model leaves
-    symbolic, and records without units, are not checked."""
-    from ..data.splits import Split
-
     want = model.data_units()
-    parts = [p for p in records if p is not None] if isinstance(records, Split) else [records]
-    for record in (r for part in parts for r in part):
+    for record in (r for part in parts for r in (part or ())):
         have = {k: record.units.get(k) for k in want}
-        bad = {k: v for k, v in have.items() if v is not None and v != want[k]}
-        if bad:
+        if any(v is not None and v != want[k] for k, v in have.items()):
             label = {"x": "input", "y": "response"}
             got = ", ".join(f"{label[k]} {have[k]!r}" for k in want)
             need = ", ".join(f"{label[k]} {want[k]!r}" for k in want)
