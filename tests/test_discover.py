@@ -41,6 +41,13 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
     assert {"test_rmse", "per_condition"} <= set(saved["before"]) and "residual_network" in saved["unexplained"]
     assert (tmp_path / "residuals.png").exists() and (tmp_path / "loops.png").exists()
     assert f"**{effect}** (effect)" in report.read_text()
+    compared = saved["steps"][0]["evidence"]["compared"]  # why this one: the refitted candidates' scores
+    assert set(compared) == set(saved["steps"][0]["evidence"]["refitted"]) and len(compared) >= 2
+    assert compared[effect]["val_rmse"] == pytest.approx(saved["steps"][0]["evidence"]["val_rmse_after"])
+    other = next(n for n in compared if n != effect)
+    assert compared[other]["val_rmse"] >= compared[effect]["val_rmse"] or \
+        compared[other]["criterion"] > compared[effect]["criterion"]
+    assert f"{other} {compared[other]['val_rmse']:.4g}" in report.read_text()
 
 
 def test_nothing_is_added_to_a_model_that_already_explains_the_data(float64, tmp_path):

@@ -259,7 +259,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
                               "val_rmse_before": val_rmse, "val_rmse_after": f_val,
                               f"{criterion}_before": ic, f"{criterion}_after": f_ic,
-                              "refitted": [f[0].name for f in finals]},
+                              "refitted": [f[0].name for f in finals],
+                              "compared": {f[0].name: {"val_rmse": f[2], "criterion": information_criterion(
+                                  f[1].sse, n_train, f[1].k, criterion)} for f in finals}},
                  "parameters": _parameters(c_fit.model),
                  "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
                  "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,

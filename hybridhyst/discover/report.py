@@ -85,9 +85,14 @@ def _paragraph(step: dict, before_rmse: float, unit: str) -> str:
     new = ", ".join(f"{k} = {_fmt(v)}" + (f" {step['parameters'].get(k, {}).get('unit', '')}".rstrip())
                     for k, v in step.get("new_coordinates", {}).items())
     kind = "effect" if step["kind"] == "effect" else "parameter function"
+    compared = ev.get("compared") or {}
+    others = "; ".join(f"{name} {_fmt(c['val_rmse'])} {unit} (criterion {_fmt(c['criterion'])})"
+                       for name, c in compared.items() if name != step["effect"])
+    why = (f" Refitted beside it, validation RMSE: {others}; of these the lowest is taken, or among those within "
+           f"the margin of it the lowest information criterion.") if others else ""
     return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. With it "
             f"(every parameter refitted) the training residual's sum of squares fell by "
-            f"{_fmt(100 * (ev.get('explained_share') or 0))} %, {tail}")
+            f"{_fmt(100 * (ev.get('explained_share') or 0))} %, {tail}{why}")
 
 
 def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
