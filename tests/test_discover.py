@@ -82,6 +82,28 @@ def test_a_parameter_that_follows_a_condition_is_found(float64):
     assert steps[0]["new_coordinates"]["coulomb.Fc.c1"] == pytest.approx(0.4, rel=0.15)
 
 
+def test_a_condition_with_three_training_levels_still_gets_its_trend(float64):
+    """Three levels are too few for a trend chosen over the levels (AICc cannot prefer a line to a constant
+    there): the condition must still be offered one parameter at a time, and the trend found. The data come
+    from numpy alone (arctan sign, exact sines), not from the library's simulator."""
+    rng = np.random.default_rng(3)
+    out = []
+    for amp in (0.5, 0.75, 1.0, 1.25, 1.5):  # 1.25 validates, 1.5 is held out: three training levels
+        t = np.arange(0, 2.0, 1 / 200)
+        x, v = amp * np.sin(2 * np.pi * t), 2 * np.pi * amp * np.cos(2 * np.pi * t)
+        fc = 0.3 + 0.4 * amp
+        y = 2.0 * x + 0.5 * v + fc * (2 / np.pi) * np.arctan(v / 0.01) + NOISE * rng.standard_normal(len(t))
+        out.append(Record(name=f"a{amp}", t=t, x=x, y=y, conditions={"amplitude_in": amp},
+                          units={"x": "in", "F": "kip", "t": "s"}))
+    split = {"held_out": {"amplitude_in": [1.5]}, "val": {"amplitude_in": [1.25]}}
+    res = discover(RecordSet(out), true_model("coulomb"), candidates=[], split=split, conditions=["amplitude_in"],
+                   noise_sd=NOISE, **FAST)
+    steps = res.report["steps"]
+    assert [s["effect"] for s in steps][:1] == ["coulomb.Fc~amplitude_in"]
+    assert steps[0]["new_coordinates"]["coulomb.Fc.c1"] == pytest.approx(0.4, rel=0.15)
+    assert res.report["after"]["test_rmse"] <= 1.5 * NOISE
+
+
 def test_bouc_wen_candidate_is_the_identifiable_normalised_form(float64):
     """α, k1, D, A are held (discovery_fixed): only k, β, γ, n are searched, and the start adds a pure
     hysteretic element F = k z (no elastic share, no cubic term) to the fitted model."""
@@ -231,7 +253,8 @@ def test_trend_per_parameter_is_chosen_by_aicc_over_the_levels():
     assert kind == "linear" and coef["slope"] == pytest.approx(12.5)
     kind, coef = choose_trend(c, laws["exp_growth"])
     assert kind == "exp_growth" and coef["b"] == pytest.approx(40, rel=1e-3)
-    assert choose_trend(c[:3], laws["exp_growth"][:3])[0] in ("constant", "linear")
+    assert choose_trend(c[:4], laws["exp_growth"][:4])[0] in ("constant", "linear")  # exponentials from 5 levels
+    assert choose_trend(c[:5], laws["exp_growth"][:5])[0] == "exp_growth"
 
 
 def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network():

@@ -18,7 +18,11 @@ from .fitting import Fit, polish
 
 __all__ = ["choose_trend", "fit_trends"]
 
-MIN_LEVELS = 3  # a trend needs at least three levels to be told from a constant by more than its two points
+# AICc over the levels can prefer a k-coefficient trend only where n − k − 1 > 0: a line from four levels on,
+# seed 002's three-coefficient exponentials from five. A condition with fewer training levels is offered one
+# parameter at a time instead (a linear function judged on every sample, like an effect).
+MIN_LEVELS = 4
+MIN_LEVELS_EXPONENTIAL = 5
 
 
 def _aicc(rss: float, n: int, k: int) -> float:
@@ -32,8 +36,8 @@ EXPONENTIAL = {"exp_growth": ExpGrowth, "exp_rise": ExpRise, "exp_decay": ExpDec
 
 def choose_trend(c: np.ndarray, y: np.ndarray) -> tuple[str, dict]:
     """The trend of values ``y`` at levels ``c`` with the lowest AICc over the levels: ``("constant",
-    {"value"})``, ``("linear", {"slope", "intercept"})`` or, from four levels on, one of seed 002's
-    exponential forms (``analysis.fit_trend``: ``"exp_growth"``, ``"exp_rise"``, ``"exp_decay"`` with
+    {"value"})``, ``("linear", {"slope", "intercept"})`` (from four levels on) or, from five levels on, one
+    of seed 002's exponential forms (``analysis.fit_trend``: ``"exp_growth"``, ``"exp_rise"``, ``"exp_decay"`` with
     ``{"y0", "a", "b"}``)."""
     c, y = np.asarray(c, float), np.asarray(y, float)
     n = len(c)
@@ -41,7 +45,7 @@ def choose_trend(c: np.ndarray, y: np.ndarray) -> tuple[str, dict]:
     slope, intercept = np.polyfit(c, y, 1)
     fits["linear"] = ({"slope": float(slope), "intercept": float(intercept)},
                       float(np.sum((y - (intercept + slope * c)) ** 2)), 2)
-    for kind in EXPONENTIAL if n >= 4 else ():
+    for kind in EXPONENTIAL if n >= MIN_LEVELS_EXPONENTIAL else ():
         try:
             tf = fit_trend(c, y, kind)
         except ValueError:  # did not converge
