@@ -68,8 +68,11 @@ def test_simulate_free_vibration_needs_an_oscillator(tmp_path):
         simulate.run(cfg)
 
 
-def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path):
+def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path, capsys):
     summary = fit.run(_compose("fit", tmp_path, TINY_FIT))
+    out = capsys.readouterr().out  # the terminal summary: both errors in the data's unit, the values, the report
+    assert f"RMSE training {summary['rmse']['train']:.4g} kip, held-out {summary['rmse']['held_out']:.4g} kip" in out
+    assert "dahl.sigma0 = " in out and "kip/in" in out and "report.md" in out and "2 adam" in out
     on_disk = json.loads((tmp_path / "summary.json").read_text())
     assert {"parameters", "rmse", "per_record", "wall_s", "split", "fit"} <= set(on_disk)
     assert set(on_disk["rmse"]) == {"train", "held_out"}

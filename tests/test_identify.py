@@ -96,6 +96,15 @@ def test_global_search_recovers_dahl_law(search, dahl_data):
     assert found.history == sorted(found.history, reverse=True)  # best cost never increases
 
 
+def test_a_coordinate_the_box_stops_is_reported_at_its_edge(dahl_data):
+    """The truth (c = 0.5) lies above a box that ends at 0.2: the fit ends on that edge and says so; a box
+    holding the truth flags nothing."""
+    opts = {"method": "de", "pop": 16, "generations": 10, "seed": 0, "progress": False, "fisher": False}
+    res = identify(_dahl(), dahl_data, bounds={**BOUNDS, "viscous.c": (0.05, 0.2)}, **opts)
+    assert res.at_bounds == {"viscous.c": "upper"} and res.x["viscous.c"] == pytest.approx(0.2, rel=1e-3)
+    assert identify(_dahl(), dahl_data, bounds=BOUNDS, **opts).at_bounds == {}
+
+
 def test_same_seed_same_result_and_diverging_members_get_inf(dahl_data):
     # absurd bounds: sigma0 up to 1e9 makes the explicit RK4 state blow up for many members
     problem = _problem(dahl_data, {**BOUNDS, "dahl.sigma0": (2.0, 1e9)})
@@ -186,7 +195,7 @@ def _linear(intercept, slope):
     return Linear(slope=slope, intercept=intercept).double()
 
 
-def test_cli_run_writes_summary(tmp_path):
+def test_cli_run_writes_summary(tmp_path, capsys):
     overrides = [f"run_dir={tmp_path}", "progress=false", "data.mixtures=[1:3]", "data.pressures=[0.05]",
                  "data.cycles=1", "data.samples_per_cycle=240", "identify.pop=8", "identify.generations=2",
                  "identify.restarts=2", "identify.lm_steps=2", "identify.substeps=2"]
@@ -199,6 +208,9 @@ def test_cli_run_writes_summary(tmp_path):
     assert set(saved["per_record"]) == {"1:3_p0.05"} and saved["rmse"] > 0
     assert saved["parameters"]["hysteresis"]["k"]["unit"] == "Nm/deg"
     assert (tmp_path / "loops.png").stat().st_size > 0 and (tmp_path / "report.md").exists()
+    out = capsys.readouterr().out  # a summary on the terminal: the error in the data's unit, the values, the report
+    assert f"RMSE {saved['rmse']:.4g} Nm" in out and "hysteresis.k = " in out and "report.md" in out
+    assert f"Pooled RMSE {saved['rmse']:.4g} Nm" in (tmp_path / "report.md").read_text()
 
 
 def test_levenberg_marquardt_survives_rows_that_diverge():

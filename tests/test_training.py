@@ -59,7 +59,7 @@ def test_datamodule_train_fraction_is_a_seeded_subset():
 def test_datamodule_errors_are_clear():
     with pytest.raises(ValueError, match="leaves no training records"):
         RecordDataModule(_loops(), held_out={"level": [1.0, 2.0, 3.0]})
-    with pytest.raises(ValueError, match=r"shorter than the window \(500 samples"):
+    with pytest.raises(ValueError, match=r"shorter than the window \(500 samples.*set datamodule.window below"):
         RecordDataModule(_loops(), window=500, warmup=10)
     with pytest.raises(ValueError, match="condition 'kind' is 'sine', not a number"):
         RecordDataModule(_loops(), conditions=["kind"])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import hydra
 import numpy as np
@@ -167,7 +168,30 @@ def run(cfg: DictConfig) -> dict:
     summary["loop_record"] = loop_name
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
+    print("\n".join(summary_lines(summary, run_dir)), flush=True)
     return summary
+
+
+def _steps(steps) -> str:
+    if isinstance(steps, dict):
+        return " + ".join(f"{n} {k}" for k, n in steps.items() if n) + " steps"
+    return f"{steps} steps"
+
+
+def summary_lines(summary: dict, run_dir) -> list[str]:
+    """The terminal summary: training and held-out RMSE in the data's unit, the fitted values, the report."""
+    unit = f" {summary['units']['y']}".rstrip()
+    rmse, fit = summary["rmse"], summary["fit"]
+    h = rmse.get("held_out")
+    held = f", held-out {h:.4g}{unit}" if h is not None and math.isfinite(h) else ""
+    lines = [f"fit: {summary['model']}: RMSE training {rmse['train']:.4g}{unit}{held} "
+             f"({_steps(fit['steps'])}, {fit['wall_s']:.3g} s)"]
+    values = [f"{e}.{p} = " + (f"{info['value']:.4g}" if isinstance(info["value"], float) else str(info["value"]))
+              + (f" {info['unit']}" if info.get("unit") and isinstance(info["value"], float) else "")
+              for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
+    lines += [f"  {', '.join(values[i:i + 4])}" for i in range(0, len(values), 4)]
+    lines.append(f"  report: {Path(run_dir) / 'report.md'}")
+    return lines
 
 
 @hydra.main(config_path=CONF_DIR, config_name="fit", version_base="1.3")

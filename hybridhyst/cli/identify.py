@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import hydra
 import torch
@@ -68,9 +69,9 @@ def _report(summary: dict) -> str:
     lines = [f"# Identification: {summary['model']}", "",
              f"Search {summary['search']['method']} + refinement {summary['search']['refine']}; "
              f"{summary['search']['evaluations']} simulated rows; wall time {summary['wall_s']:.3g} s.", "",
-             f"Pooled RMSE {summary['rmse']:.4g}" + (f" (noise sd {summary['noise_sd']:g})" if summary['noise_sd']
-                                                     else ""), "",
-             "| record | RMSE |", "|---|---|"]
+             f"Pooled RMSE {summary['rmse']:.4g} {summary['response_unit']}".rstrip()
+             + (f" (noise sd {summary['noise_sd']:g})" if summary['noise_sd'] else ""), "",
+             f"| record | RMSE [{summary['response_unit'] or '-'}] |", "|---|---|"]
     lines += [f"| {k} | {v:.4g} |" for k, v in summary["per_record"].items()]
     lines += ["", "## Parameters", "", "| coordinate | value | sd | unit |", "|---|---|---|---|"]
     for name, value in summary["coordinates"].items():
@@ -81,12 +82,38 @@ def _report(summary: dict) -> str:
     for c in summary["combinations"]:
         ok = "yes" if c["identifiable"] else "no"
         lines.append(f"| {c['expression']} | {c['eigenvalue']:.3g} | {_num(c['sd'])} | {ok} |")
+    if summary["at_bounds"]:
+        lines += ["", _edge_line(summary)]
     if summary["non_identifiable"]:
         lines += ["", "Not identifiable from these records (they trade off): "
                   + ", ".join(summary["non_identifiable"]) + ". Compare responses and the identifiable "
                   "combinations, not these raw values."]
     lines += ["", "![loops](loops.png)", ""]
     return "\n".join(lines)
+
+
+def _edge_line(summary: dict) -> str:
+    edges = ", ".join(f"{n} ({side} edge)" for n, side in summary["at_bounds"].items())
+    return (f"At the edge of the search box: {edges}. The box, not the data, set these values: widen it "
+            "(identify.bounds={name: [low, high]}, or identify.box_factor) or start nearer (the value in the model "
+            "config).")
+
+
+def summary_lines(summary: dict, run_dir) -> list[str]:
+    """The terminal summary: the RMSE, the identified coordinates with units, box edges, where the report is."""
+    unit = f" {summary['response_unit']}".rstrip()
+    noise = f" (noise sd {summary['noise_sd']:g})" if summary["noise_sd"] else ""
+    lines = [f"identify: {summary['model']} on {len(summary['records'])} record(s): RMSE {summary['rmse']:.4g}{unit}"
+             f"{noise}, {summary['search']['identify_wall_s']:.3g} s"]
+    coords = [f"{n} = {v:.4g} {summary['units'].get(n, '')}".rstrip() for n, v in summary["coordinates"].items()]
+    lines += [f"  {', '.join(coords[i:i + 4])}" for i in range(0, len(coords), 4)]
+    if summary["non_identifiable"]:
+        traded = ", ".join(summary["non_identifiable"])
+        lines.append(f"  not identifiable from these records (they trade off): {traded}")
+    if summary["at_bounds"]:
+        lines.append(f"  {_edge_line(summary)}")
+    lines.append(f"  report: {Path(run_dir) / 'report.md'}")
+    return lines
 
 
 def _summary(cfg, model, result, records) -> dict:
@@ -99,7 +126,9 @@ def _summary(cfg, model, result, records) -> dict:
         "coordinates": result.x,
         "units": units,
         "rmse": result.rmse,
+        "response_unit": records.records[0].units.get("y", "") if len(records) else "",
         "per_record": result.per_record,
+        "at_bounds": result.at_bounds,
         "noise_sd": float(cfg.get("noise_sd") or 0.0),
         "identifiable": result.identifiable,
         "non_identifiable": fisher.non_identifiable if fisher else [],
@@ -131,6 +160,7 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)
+    print("\n".join(summary_lines(summary, run_dir)), flush=True)
     return summary
 
 

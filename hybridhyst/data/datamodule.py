@@ -199,8 +199,11 @@ class RecordDataModule(L.LightningDataModule):
         short = [(r.name, len(p["t"])) for r, p in zip(self.split.train, self.prepared["train"])
                  if self.window is not None and len(p["t"]) < self.window]
         if short:
+            shortest = min(n for _, n in short)
             raise ValueError(f"training records shorter than the window ({self.window} samples after thinning): "
-                             f"{short}; lower data.window or the thinning")
+                             f"{short}; set datamodule.window below {shortest} (and datamodule.warmup below "
+                             "that), thin less (datamodule.samples_per_cycle, datamodule.downsample), or "
+                             "datamodule.window=null for whole records")
         self._train = self._make_train()
         kept = sorted({i for i, _ in self._train.items})  # records with at least one kept window
         self.normaliser = Normaliser.fit([self._kept_samples(i) for i in kept], [self.cond["train"][i] for i in kept],

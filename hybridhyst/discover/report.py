@@ -72,10 +72,12 @@ def _ic(ev: dict, when: str):
     return next((v for k, v in ev.items() if k.endswith(f"_{when}") and not k.startswith("val")), None)
 
 
-def _paragraph(step: dict, before_rmse: float, unit: str) -> str:
+def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validation") -> str:
+    """One step in words; ``scored``: the records the acceptance rule's RMSE is measured on ("validation", or
+    "training" when there are no validation records)."""
     ev = step["evidence"]
     fall = (1 - ev["val_rmse_after"] / ev["val_rmse_before"]) * 100 if ev["val_rmse_before"] else math.nan
-    tail = (f"the validation RMSE from {_fmt(ev['val_rmse_before'])} to {_fmt(ev['val_rmse_after'])} {unit} "
+    tail = (f"the {scored} RMSE from {_fmt(ev['val_rmse_before'])} to {_fmt(ev['val_rmse_after'])} {unit} "
             f"({_fmt(fall)} %), and the information criterion from {_fmt(_ic(ev, 'before'))} to "
             f"{_fmt(_ic(ev, 'after'))}.")
     if step["kind"] == "trend":
@@ -88,8 +90,8 @@ def _paragraph(step: dict, before_rmse: float, unit: str) -> str:
     compared = ev.get("compared") or {}
     others = "; ".join(f"{name} {_fmt(c['val_rmse'])} {unit} (criterion {_fmt(c['criterion'])})"
                        for name, c in compared.items() if name != step["effect"])
-    why = (f" Refitted beside it, validation RMSE: {others}; of these the lowest is taken, or among those within "
-           f"the margin of it the lowest information criterion.") if others else ""
+    why = (f" Refitted beside it, {scored.split()[0]} RMSE: {others}; of these the lowest is taken, or among "
+           f"those within the margin of it the lowest information criterion.") if others else ""
     return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. With it "
             f"(every parameter refitted) the training residual's sum of squares fell by "
             f"{_fmt(100 * (ev.get('explained_share') or 0))} %, {tail}{why}")
@@ -114,17 +116,18 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
     lines += ["", "## Accepted", ""]
-    lines += [_paragraph(s, b.get("val_rmse"), unit) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
+    scored = "validation" if r["records"]["val"] else "training (no validation records)"
+    lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):
         change = (f"replaced by its special case {' + '.join(g['by'])}" if g.get("by") else
                   "removed: its contribution vanished")
-        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, validation RMSE "
+        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored.split()[0]} RMSE "
                   f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, and the information "
                   "criterion fell).", ""]
     if r["rejected"]:
         s = r["rejected"][0]
         ev = s["evidence"]
-        lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: validation RMSE "
+        lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: {scored.split()[0]} RMSE "
                   f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit} (margin "
                   f"{r['settings']['margin']:.0%} required) and the information criterion "
                   f"{_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
@@ -158,6 +161,9 @@ def _leftover_sentence(net: dict) -> str:
                 f"{on} records ({_fmt(net['rmse_before'])} → {_fmt(net['rmse_after_network'])}; "
                 f"{_fmt(100 * net['train_share'])} % on the training records)"
                 + (", in sample: not used for the flag." if on != "val" else "."))
+    if net["explained_share"] <= 0:
+        return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers none of the remaining residual "
+                f"variance on the {on} records (its prediction there is worse than none: {share} %).")
     return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers {share} % of the remaining "
             f"residual variance on the {on} records.")
 

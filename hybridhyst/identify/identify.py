@@ -43,6 +43,8 @@ class IdentificationResult:
     uncertainty : standard deviation of each coordinate ``{name: sd}``.
     history : best cost per search generation, then the refinement's per-step summed cost.
     wall_s : wall time [s]; evaluations : simulated population rows (× records); search : method name.
+    at_bounds : ``{name: "lower" | "upper"}``, coordinates that ended at an edge of the search box (within
+    0.1 % of its width, on the log scale where it searches one): the box, not the data, set them.
     """
 
     model: nn.Module
@@ -58,6 +60,7 @@ class IdentificationResult:
     wall_s: float = 0.0
     evaluations: int = 0
     search: str = ""
+    at_bounds: dict[str, str] = field(default_factory=dict)
 
 
 class RecordsProblem:
@@ -303,4 +306,12 @@ def _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method
         model=space.model, x=dict(zip(space.names, x.tolist())), parameters=space.model.parameter_table(),
         rmse=math.sqrt(cost), per_record=per_record, cost=cost, fisher=report,
         identifiable=report.identifiable if report else [], uncertainty=report.sd if report else {},
-        history=history, wall_s=time.perf_counter() - start, evaluations=evals, search=method)
+        history=history, wall_s=time.perf_counter() - start, evaluations=evals, search=method,
+        at_bounds=at_bounds(space, x))
+
+
+def at_bounds(space, x, tol: float = 1e-3) -> dict[str, str]:
+    """``{name: "lower" | "upper"}`` for the coordinates ``x`` that lie within ``tol`` of an edge of ``space``'s
+    box, measured in its unit cube (log scale for positive coordinates)."""
+    u = space.to_unit(torch.as_tensor(x, dtype=torch.float64).reshape(1, -1))[0].tolist()
+    return {n: ("lower" if v <= tol else "upper") for n, v in zip(space.names, u) if v <= tol or v >= 1 - tol}
