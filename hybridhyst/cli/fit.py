@@ -9,6 +9,7 @@ and ``config.yaml`` into the run directory (``hydra.run.dir=...``).
 from __future__ import annotations
 
 import math
+import textwrap
 import time
 from pathlib import Path
 
@@ -36,7 +37,7 @@ from .common import (
     torch_settings,
     write_json,
 )
-from .fit_report import write_loop_figure, write_report
+from .fit_report import _fmt, write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
@@ -172,24 +173,18 @@ def run(cfg: DictConfig) -> dict:
     return summary
 
 
-def _steps(steps) -> str:
-    if isinstance(steps, dict):
-        return " + ".join(f"{n} {k}" for k, n in steps.items() if n) + " steps"
-    return f"{steps} steps"
-
-
 def summary_lines(summary: dict, run_dir) -> list[str]:
     """The terminal summary: training and held-out RMSE in the data's unit, the fitted values, the report."""
     unit = f" {summary['units']['y']}".rstrip()
     rmse, fit = summary["rmse"], summary["fit"]
     h = rmse.get("held_out")
     held = f", held-out {h:.4g}{unit}" if h is not None and math.isfinite(h) else ""
+    steps = " + ".join(f"{n} {kind}" for kind, n in fit["steps"].items() if n)
     lines = [f"fit: {summary['model']}: RMSE training {rmse['train']:.4g}{unit}{held} "
-             f"({_steps(fit['steps'])}, {fit['wall_s']:.3g} s)"]
-    values = [f"{e}.{p} = " + (f"{info['value']:.4g}" if isinstance(info["value"], float) else str(info["value"]))
-              + (f" {info['unit']}" if info.get("unit") and isinstance(info["value"], float) else "")
+             f"({steps} steps, {fit['wall_s']:.3g} s)"]
+    values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
-    lines += [f"  {', '.join(values[i:i + 4])}" for i in range(0, len(values), 4)]
+    lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 

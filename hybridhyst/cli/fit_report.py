@@ -33,10 +33,8 @@ def _fmt(value) -> str:
 
 def _grid(evaluate: dict) -> str:
     factors = sorted(set(evaluate["decimation"].values()))
-    every = ("every sample" if factors == [1] else
-             f"one measured sample in {' or '.join(map(str, factors))}, depending on the record")
-    if len(factors) == 1 and factors != [1]:
-        every = f"one measured sample in {factors[0]}"
+    every = ("every sample" if factors == [1] else f"one measured sample in {' or '.join(map(str, factors))}"
+             + (", depending on the record" if len(factors) > 1 else ""))
     per_cycle = evaluate.get("samples_per_cycle")
     return f"about {per_cycle} samples per loading cycle ({every})" if per_cycle else every
 

@@ -10,6 +10,7 @@ model's state dict), ``loops.png``, ``report.md`` and ``config.yaml`` into the r
 from __future__ import annotations
 
 import math
+import textwrap
 import time
 from pathlib import Path
 
@@ -106,7 +107,7 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     lines = [f"identify: {summary['model']} on {len(summary['records'])} record(s): RMSE {summary['rmse']:.4g}{unit}"
              f"{noise}, {summary['search']['identify_wall_s']:.3g} s"]
     coords = [f"{n} = {v:.4g} {summary['units'].get(n, '')}".rstrip() for n, v in summary["coordinates"].items()]
-    lines += [f"  {', '.join(coords[i:i + 4])}" for i in range(0, len(coords), 4)]
+    lines += textwrap.wrap(", ".join(coords), 116, initial_indent="  ", subsequent_indent="  ")
     if summary["non_identifiable"]:
         traded = ", ".join(summary["non_identifiable"])
         lines.append(f"  not identifiable from these records (they trade off): {traded}")

@@ -74,7 +74,7 @@ def _ic(ev: dict, when: str):
 
 def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validation") -> str:
     """One step in words; ``scored``: the records the acceptance rule's RMSE is measured on ("validation", or
-    "training" when there are no validation records)."""
+    "training" when there are none)."""
     ev = step["evidence"]
     fall = (1 - ev["val_rmse_after"] / ev["val_rmse_before"]) * 100 if ev["val_rmse_before"] else math.nan
     tail = (f"the {scored} RMSE from {_fmt(ev['val_rmse_before'])} to {_fmt(ev['val_rmse_after'])} {unit} "
@@ -90,7 +90,7 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
     compared = ev.get("compared") or {}
     others = "; ".join(f"{name} {_fmt(c['val_rmse'])} {unit} (criterion {_fmt(c['criterion'])})"
                        for name, c in compared.items() if name != step["effect"])
-    why = (f" Refitted beside it, {scored.split()[0]} RMSE: {others}; of these the lowest is taken, or among "
+    why = (f" Refitted beside it, {scored} RMSE: {others}; of these the lowest is taken, or among "
            f"those within the margin of it the lowest information criterion.") if others else ""
     return (f"**{step['effect']}** ({kind}): {step['description']} Fitted new coordinates: {new}. With it "
             f"(every parameter refitted) the training residual's sum of squares fell by "
@@ -116,18 +116,20 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
     lines += ["", "## Accepted", ""]
-    scored = "validation" if r["records"]["val"] else "training (no validation records)"
+    scored = "validation" if r["records"]["val"] else "training"
+    if not r["records"]["val"]:
+        lines += ["No validation records: the acceptance rule's RMSE is the training records'.", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):
         change = (f"replaced by its special case {' + '.join(g['by'])}" if g.get("by") else
                   "removed: its contribution vanished")
-        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored.split()[0]} RMSE "
+        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored} RMSE "
                   f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, and the information "
                   "criterion fell).", ""]
     if r["rejected"]:
         s = r["rejected"][0]
         ev = s["evidence"]
-        lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: {scored.split()[0]} RMSE "
+        lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: {scored} RMSE "
                   f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit} (margin "
                   f"{r['settings']['margin']:.0%} required) and the information criterion "
                   f"{_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
