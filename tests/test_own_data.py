@@ -8,10 +8,11 @@ import shlex
 from pathlib import Path
 
 import pytest
+import torch
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
-from hybridhyst.cli.common import CONF_DIR, guarded
+from hybridhyst.cli.common import CONF_DIR, guarded, torch_settings
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "own_data"
@@ -103,12 +104,21 @@ def test_discover_runs_and_prints_a_summary(tmp_path, capsys):
     assert saved["records"] == {"train": TRAINING, "val": [], "test": ["p0.05", "p0.09"]}
     assert report["before"]["test_rmse"] > 0
     out = capsys.readouterr().out.splitlines()
-    assert out[-4].startswith("discovery: added ") and out[-3].startswith("  test RMSE ")
-    assert out[-3].endswith(" Nm") and out[-1] == f"  report: {tmp_path / 'report.md'}"
+    assert out[-5].startswith("discovery: added ") and out[-4].startswith("  test RMSE ")
+    assert out[-4].endswith(" Nm") and out[-1] == f"  report: {tmp_path / 'report.md'}"
     text = (tmp_path / "report.md").read_text()
     assert text.startswith("# Discovery: vpptd_algebraic nominal on damper_loops")
     # no validation records: the report says which records the acceptance rule scored, never "validation RMSE"
     assert "No validation records" in text and "training RMSE" in text and "validation RMSE" not in text
+    # the discovered model, values and all, is a config that every app selects by name
+    reuse = f"'hydra.searchpath=[file://{tmp_path}]' model=discovered"
+    assert out[-2] == f"  the discovered model in another app: {reuse}" and "model/discovered.yaml" in text
+    with torch_settings("float64"):
+        model = instantiate(_compose("identify", tmp_path / "again", *shlex.split(reuse)).model, _convert_="all")
+    saved = torch.load(tmp_path / "model.pt")
+    assert model.name == "vpptd_algebraic" and set(model.state_dict()) == set(saved)
+    for key, value in model.state_dict().items():
+        torch.testing.assert_close(value, saved[key], rtol=1e-12, atol=1e-12, msg=key)
 
 
 def test_train_runs_with_the_pressure_as_a_network_input(tmp_path):

@@ -55,6 +55,7 @@ __all__ = [
     "split_options",
     "torch_settings",
     "write_json",
+    "write_model",
 ]
 
 
@@ -72,6 +73,27 @@ def identify_options(block, where: str, reserved: tuple[str, ...] = (), /, **set
     opts.update(settings)
     opts["bounds"] = {k: tuple(v) for k, v in (opts.get("bounds") or {}).items()}
     return check_kwargs(opts, identify, where, reserved=("model", "records", "seed", "progress", *reserved))
+
+
+def write_model(run_dir, model, config_name: str, what: str) -> str:
+    """Write a fitted model where every app can use it again: ``model.pt`` (its state dict, for
+    ``hybridhyst-train nominal_state=``) and ``model/<config_name>.yaml`` (its config with the fitted values,
+    ``physics.model_config``); return the override that selects it, ``'hydra.searchpath=[file://<run dir>]'
+    model=<config_name>``. ``what`` heads the YAML file (e.g. "discovered by hybridhyst-discover")."""
+    from pathlib import Path
+
+    import torch
+
+    from ..physics import model_config
+
+    run_dir = Path(run_dir).resolve()
+    atomic_write(run_dir / "model.pt", lambda p: torch.save(model.state_dict(), p))
+    (run_dir / "model").mkdir(exist_ok=True)
+    header = (f"# The model {what}, with its fitted values: select it in any app with\n"
+              f"#   'hydra.searchpath=[file://{run_dir}]' model={config_name}\n"
+              f"# Network weights, where the model has any, are in {run_dir / 'model.pt'} (nominal_state=).\n")
+    atomic_write(run_dir / "model" / f"{config_name}.yaml", header + OmegaConf.to_yaml(model_config(model)))
+    return f"'hydra.searchpath=[file://{run_dir}]' model={config_name}"
 
 
 def check_app(cfg: DictConfig, app: str) -> None:

@@ -33,6 +33,7 @@ from .common import (
     split_options,
     to_plain,
     torch_settings,
+    write_model,
 )
 
 __all__ = ["load_split", "main", "run", "summary_lines"]
@@ -50,9 +51,10 @@ def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
     return records, records.split(held_out=split["held_out"], val=split["val"])
 
 
-def summary_lines(report: dict, unit: str, run_dir: Path | str) -> list[str]:
+def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | None = None) -> list[str]:
     """A few lines for the terminal: the effects named (added, removed, the best one not accepted), the
-    validation, test and training RMSE before -> after in the response's unit, and where the report is."""
+    validation, test and training RMSE before -> after in the response's unit, the override that selects the
+    discovered model in another app (``reuse``) and where the report is."""
     def fmt(v):
         return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
 
@@ -77,6 +79,8 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str) -> list[str]:
     if report.get("refit"):
         lines.append("  (validation: the training-only fits; test and training: both refitted on training + "
                      "validation records)")
+    if reuse:
+        lines.append(f"  the discovered model in another app: {reuse}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 
@@ -106,8 +110,10 @@ def run(cfg: DictConfig) -> dict:
         result = discover(records, model, **options)
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"
+    reuse = write_model(run_dir, result.model, "discovered", "discovered by hybridhyst-discover")
+    result.report["model_config"] = "model/discovered.yaml"
     write_discovery(result, run_dir, title=title, unit=unit)
-    print("\n".join(summary_lines(result.report, unit, run_dir)), flush=True)
+    print("\n".join(summary_lines(result.report, unit, run_dir, reuse)), flush=True)
     return result.report
 
 

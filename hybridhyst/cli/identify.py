@@ -21,6 +21,7 @@ from omegaconf import DictConfig
 from ..data.records import RecordSet
 from ..identify import SearchSpace, identify
 from ..report.figures import write_loops
+from ..report.markdown import model_reuse_sentence
 from ..simulate import simulate
 from .common import (
     CONF_DIR,
@@ -35,6 +36,7 @@ from .common import (
     split_options,
     torch_settings,
     write_json,
+    write_model,
 )
 
 __all__ = ["add_noise", "main", "run"]
@@ -89,7 +91,7 @@ def _report(summary: dict) -> str:
         lines += ["", "Not identifiable from these records (they trade off): "
                   + ", ".join(summary["non_identifiable"]) + ". Compare responses and the identifiable "
                   "combinations, not these raw values."]
-    lines += ["", "![loops](loops.png)", ""]
+    lines += ["", "![loops](loops.png)", "", model_reuse_sentence("identified", "model/identified.yaml"), ""]
     return "\n".join(lines)
 
 
@@ -100,8 +102,9 @@ def _edge_line(summary: dict) -> str:
             "config).")
 
 
-def summary_lines(summary: dict, run_dir) -> list[str]:
-    """The terminal summary: the RMSE, the identified coordinates with units, box edges, where the report is."""
+def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]:
+    """The terminal summary: the RMSE, the identified coordinates with units, box edges, the override that
+    selects the identified model in another app (``reuse``), where the report is."""
     unit = f" {summary['response_unit']}".rstrip()
     noise = f" (noise sd {summary['noise_sd']:g})" if summary["noise_sd"] else ""
     lines = [f"identify: {summary['model']} on {len(summary['records'])} record(s): RMSE {summary['rmse']:.4g}{unit}"
@@ -113,6 +116,8 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
         lines.append(f"  not identifiable from these records (they trade off): {traded}")
     if summary["at_bounds"]:
         lines.append(f"  {_edge_line(summary)}")
+    if reuse:
+        lines.append(f"  the identified model in another app: {reuse}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 
@@ -156,12 +161,12 @@ def run(cfg: DictConfig) -> dict:
         summary = _summary(cfg, model, result, records)
     shown = list(records)[: max(1, int(cfg.report.max_figures))]
     write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")
-    # the fitted nominal's state dict: hybridhyst-train can start a hybrid from it (nominal_state=<run dir>)
-    atomic_write(run_dir / "model.pt", lambda p: torch.save(model.state_dict(), p))
+    # the fitted nominal (model.pt, model/identified.yaml): hybridhyst-train starts a hybrid from it
+    reuse = write_model(run_dir, model, "identified", "identified by hybridhyst-identify")
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)
-    print("\n".join(summary_lines(summary, run_dir)), flush=True)
+    print("\n".join(summary_lines(summary, run_dir, reuse)), flush=True)
     return summary
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..files import atomic_write, write_json
 from ..report.figures import write_loops
+from ..report.markdown import model_reuse_sentence
 from .diagnose import FEATURES, features
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
@@ -151,6 +152,8 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
               "![Loops: measured, before and after](loops.png)", ""]
     lines += ["## Parameters after", "", "| parameter | value | unit |", "|---|---|---|"]
     lines += [f"| {k} | {_fmt(v['value'])} | {v['unit']} |" for k, v in a["parameters"].items()]
+    if r.get("model_config"):
+        lines += ["", model_reuse_sentence("discovered", r["model_config"])]
     return "\n".join(lines) + "\n"
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .models import Constitutive, DrivenOscillator, NominalModel
 
-__all__ = ["build_effect", "build_model"]
+__all__ = ["build_effect", "build_model", "model_config"]
 
 STRUCTURES = {"constitutive": Constitutive, "oscillator": DrivenOscillator}
 
@@ -57,3 +57,25 @@ def build_model(structure: str = "constitutive", effects: dict | None = None, un
     if structure == "constitutive" and structure_options:
         raise ValueError(f"a constitutive model takes no structure options, got {sorted(structure_options)}")
     return STRUCTURES[structure](built, units=_plain(units) if units else None, name=name, **structure_options)
+
+
+def model_config(model: NominalModel) -> dict:
+    """The config ``build_model`` builds ``model`` back from, with its current parameter values: structure,
+    name, units, every effect (``Effect.config``) and, for an oscillator, its structure options. A model
+    found by discovery or identification can so be written as a ``conf/model/*.yaml`` and used by every app.
+
+    A network's weights (a neural effect or parameter function) are not config values: the config gives its
+    form, and the model's state dict (``model.pt``) its weights.
+    """
+    from .parameters import Fixed
+
+    structure = next((key for key, cls in STRUCTURES.items() if type(model) is cls), None)
+    if structure is None:
+        raise ValueError(f"{type(model).__name__} is not one of the structures {sorted(STRUCTURES)}")
+    cfg = {"_target_": "hybridhyst.physics.build_model", "name": model.name, "structure": structure,
+           "units": dict(model.units), "effects": {key: effect.config() for key, effect in model.effects.items()}}
+    if structure == "oscillator":
+        cfg.update(excitation=model.excitation, outputs=list(model.outputs),
+                   fixed=[k for k, fn in model.structure_params.items() if isinstance(fn, Fixed)],
+                   **{k: fn.config() for k, fn in model.structure_params.items()})
+    return cfg

@@ -14,7 +14,17 @@ from .collect import collect_runs
 from .figures import data_efficiency_figure, error_per_condition_figure, lambda_figure, loops_figure
 from .tables import condition_stats, condition_table, error_unit, failed_table, summary_table
 
-__all__ = ["write_report"]
+__all__ = ["model_reuse_sentence", "write_report"]
+
+
+def model_reuse_sentence(what: str, config: str) -> str:
+    """The report sentence that says where a run's fitted model is and how another app selects it
+    (``config``: its config file in the run directory, e.g. ``model/discovered.yaml``)."""
+    name = Path(config).stem
+    return (f"The {what} model, with these values, is in `{config}` (its config) and `model.pt` (its state dict): "
+            f"select it in any app with `'hydra.searchpath=[file://<this directory>]' model={name}` (with "
+            "`nominal_state=<this directory>`, `hybridhyst-train` starts from exactly these values instead of "
+            "identifying the nominal again).")
 
 def _num(value) -> str:
     """A number with 4 significant digits; missing values as "—"."""

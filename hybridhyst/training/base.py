@@ -39,6 +39,8 @@ class SequenceModule(L.LightningModule):
     ----------
     normaliser : ``Normaliser.to_dict()`` of the training data (fitted on training records only).
     condition_names : numeric conditions in ``batch["cond"]`` (network inputs, parameter functions).
+    network_conditions : those of them the networks read (default: all); the nominal's parameter functions
+        read any of them.
     features : input channels of networks among "t", "u", "du", "ddu" (conditions are appended).
     lr, weight_decay : Adam settings of the networks; nominal_lr : relative Adam step of each nominal
         parameter (times max(|raw value|, 1); default ``lr``).
@@ -53,7 +55,7 @@ class SequenceModule(L.LightningModule):
     kind = "base"
 
     def __init__(self, normaliser: dict, condition_names: Sequence[str] = (),
-                 features: Sequence[str] = ("t", "u", "du"), lr: float = 1e-3, weight_decay: float = 0.0,
+                 network_conditions: Sequence[str] | None = None, features: Sequence[str] = ("t", "u", "du"), lr: float = 1e-3, weight_decay: float = 0.0,
                  loss: str = "mse", lambda_phys: float = 0.0, units: dict | None = None,
                  nominal_lr: float | None = None, normalise_loss: bool = True, lr_schedule: str = "constant",
                  lr_final_ratio: float = 0.01):
@@ -71,6 +73,10 @@ class SequenceModule(L.LightningModule):
             raise ValueError(f"lambda_phys must be >= 0, got {lambda_phys}")
         self.norm = Normaliser.from_dict(normaliser)
         self.condition_names = list(condition_names)
+        self.network_conditions = list(self.condition_names if network_conditions is None else network_conditions)
+        unknown = [c for c in self.network_conditions if c not in self.condition_names]
+        if unknown:
+            raise ValueError(f"network condition(s) {unknown} are not among the batch's conditions {self.condition_names}")
         self.feature_names = list(features)
         self.lr, self.weight_decay, self.loss_kind = float(lr), float(weight_decay), loss
         self.nominal_lr = float(lr if nominal_lr is None else nominal_lr)
@@ -87,7 +93,7 @@ class SequenceModule(L.LightningModule):
     # -- features ----------------------------------------------------------------------------------
     @property
     def n_features(self) -> int:
-        return len(self.feature_names) + len(self.condition_names)
+        return len(self.feature_names) + len(self.network_conditions)
 
     def features(self, batch, inputs=None, t=None) -> torch.Tensor:
         """Normalised network inputs ``(batch, time, n_features)``; ``inputs``/``t`` override the batch's."""
@@ -100,9 +106,9 @@ class SequenceModule(L.LightningModule):
         return torch.stack(cols, dim=-1).to(self.dtype)
 
     def condition_features(self, batch) -> list[torch.Tensor]:
-        """Each numeric condition of the batch normalised, one ``(batch,)`` tensor per condition."""
-        return [self.norm.scale(name, batch["cond"][:, j].to(self.dtype))
-                for j, name in enumerate(self.condition_names)]
+        """Each condition the networks read, normalised: one ``(batch,)`` tensor per condition."""
+        return [self.norm.scale(name, batch["cond"][:, self.condition_names.index(name)].to(self.dtype))
+                for name in self.network_conditions]
 
     @property
     def y_scale(self) -> float:
@@ -282,7 +288,7 @@ class NominalMixin:
         if not S:
             raise ValueError(f"encoder.past={past}: model {self.nominal.name!r} has no state to estimate at a window's "
                              "start (a memoryless model); use encoder.past=0")
-        self.encoder = build_net("mlp", 2 * self.past + len(self.condition_names), S, hidden, activation="tanh",
+        self.encoder = build_net("mlp", 2 * self.past + len(self.network_conditions), S, hidden, activation="tanh",
                                  zero_last=True).double()
         self.register_buffer("state_scale", torch.zeros(S, dtype=torch.float64))  # from the first training batch
 

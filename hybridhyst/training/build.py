@@ -29,17 +29,25 @@ NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
 
 def build_datamodule(cfg: DictConfig) -> RecordDataModule:
     """Records from ``cfg.data`` (``split.select``) in a ``RecordDataModule`` (``split.held_out`` -> test,
-    ``split.val`` -> validation); the conditions fed to the networks must be numbers in every record."""
+    ``split.val`` -> validation). Its conditions are those fed to the networks (``datamodule.conditions``) and
+    those the nominal's parameter functions read (a model whose parameters depend on the pressure gets it
+    without the network seeing it); each must be a number in every record."""
     from ..data.splits import check_conditions
+    from ..physics.models import conditions_used
 
     split = split_options(cfg)
     d = check_kwargs(to_plain(cfg.datamodule), RecordDataModule.__init__, "datamodule",
                      reserved=("records", "held_out", "val", "seed", "past"))
     records = load_records(cfg, split["select"])
-    check_conditions(records.split(held_out=split["held_out"], val=split["val"]), d.get("conditions") or [],
-                     "datamodule.conditions")
+    parts = records.split(held_out=split["held_out"], val=split["val"])
+    network = list(d.pop("conditions", None) or [])
+    check_conditions(parts, network, "datamodule.conditions")
+    model = []
+    if cfg.get("module") in NOMINAL_MODULES:
+        model = [c for c in conditions_used(instantiate(cfg.model, _convert_="all")) if c not in network]
+        check_conditions(parts, model, f"model {cfg.model.get('name') or ''} (a parameter is a function of it)")
     return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed),
-                            past=encoder_past(cfg), **d)
+                            past=encoder_past(cfg), conditions=[*network, *model], **d)
 
 
 def encoder_past(cfg: DictConfig) -> int:
@@ -62,7 +70,9 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     if kind not in MODULES:
         raise ValueError(f"unknown module {kind!r}; choose from {sorted(MODULES)}")
     loss, net = cfg.loss, cfg.residual
-    common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names, "units": dm.units,
+    network = [c for c in dm.condition_names if c in (cfg.datamodule.get("conditions") or [])]
+    common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names,
+              "network_conditions": network, "units": dm.units,
               "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
               "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
               "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.lr_schedule),

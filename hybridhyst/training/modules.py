@@ -139,7 +139,7 @@ class HybridModule(NominalMixin, SequenceModule):
         self._setup_nominal(nominal, backend, method, substeps, trainable=not freeze_nominal)
         self.residual_kind = residual
         if placement == "dynamics":
-            conditions = {c: (self.norm.mean[c], self.norm.sd[c]) for c in self.condition_names}
+            conditions = {c: (self.norm.mean[c], self.norm.sd[c]) for c in self.network_conditions}
             self.net = NeuralEffect(dynamics_inputs, self.latent_states, hidden, activation,
                                     scales=neural_scales(nominal, self.norm), conditions=conditions)
             self.__dict__["_augmented"] = nominal.augmented({NEURAL: self.net})  # not a submodule: its parameters

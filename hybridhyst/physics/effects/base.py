@@ -172,6 +172,19 @@ class Effect(nn.Module):
         """The unit of parameter ``pname`` with the model's ``units`` (``{"F": "Nm", "x": "deg"}``)."""
         return render_unit(self.param_specs[pname].unit, units)
 
+    def options(self) -> dict:
+        """The constructor's arguments that are not parameters (e.g. what drives a Bouc–Wen state), as given."""
+        return {}
+
+    def config(self) -> dict:
+        """``{"effect": name, **options, parameter: value or function config, "fixed": [...]}``: what
+        ``physics.build_effect`` builds this effect back from, with its current values."""
+        from ..parameters import Fixed
+
+        fixed = [pname for pname, fn in self.params.items() if isinstance(fn, Fixed)]
+        return {"effect": self.name, **self.options(), **{pname: fn.config() for pname, fn in self.params.items()},
+                **({"fixed": fixed} if fixed else {})}
+
     def describe(self, units: dict[str, str] | None = None) -> dict[str, dict[str, str]]:
         """Parameter name -> {value (or function), unit} for reports."""
         return {pname: {"value": fn.describe(), "unit": self.param_unit(pname, units)}

@@ -67,6 +67,9 @@ class BoucWenHysteresis(Effect):
             spec = ParameterSpec(1.0, "F/x", (-1e9, 1e9), "real", doc="hysteretic force per unit z")
             self.add_parameter("kappa", kappa, spec, fixed=fix_kappa)
 
+    def options(self) -> dict:
+        return {"driven_by": self.driven_by}
+
     def _kappa(self, p):
         return p["kappa"] if self.free_kappa else p["D"] * p["k"]
 

@@ -13,7 +13,7 @@ from typing import ClassVar
 
 import torch
 
-from ...nets import build_net
+from ...nets import build_net, parse_hidden
 from ..parameters import ParameterSpec
 from .base import Effect, Kinematics
 
@@ -75,6 +75,9 @@ class NeuralEffect(Effect):
         for key, value in scales.items():
             if not float(value) > 0:
                 raise ValueError(f"neural effect: scale {key!r} must be > 0, got {value}")
+        self._options = {"inputs": list(inputs), "latent_states": int(latent_states), "hidden": parse_hidden(hidden),
+                         "activation": activation, "scales": {k: float(v) for k, v in scales.items()},
+                         "conditions": {c: [float(m), float(sd)] for c, (m, sd) in (conditions or {}).items()}}
         self.inputs = tuple(inputs)
         self.state_dim = int(latent_states)  # per instance: the model lays out its states from it
         self.condition_names = tuple(conditions or {})
@@ -89,6 +92,10 @@ class NeuralEffect(Effect):
         n_in = len(self.inputs) + self.state_dim + len(self.condition_names)
         self.net = build_net("mlp", n_in, 1 + self.state_dim, hidden, activation=activation, zero_last=True)
         self._last: tuple | None = None
+
+    def options(self) -> dict:
+        """The network's form; its weights are in the model's state dict (``model.pt``)."""
+        return dict(self._options)
 
     def value_names(self) -> list[str]:
         return [f"@{c}" for c in self.condition_names]

@@ -34,6 +34,9 @@ class Viscous(Effect):
         self.scaled_unit = scaled_unit
         self.register_buffer("velocity_scale", torch.tensor(float(velocity_scale), dtype=torch.get_default_dtype()))
 
+    def options(self) -> dict:
+        return {"velocity_scale": float(self.velocity_scale), "scaled_unit": self.scaled_unit}
+
     def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
         if self.scaled_unit and units:
             units = {**units, "x": self.scaled_unit}

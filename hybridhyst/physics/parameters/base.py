@@ -135,3 +135,8 @@ class ParameterFunction(nn.Module):
 
     def describe(self) -> str:
         return type(self).__name__
+
+    def config(self):
+        """The config value that ``build_function`` turns back into this function with its current values (a
+        number or ``{"kind": ..., ...}``); the inverse that ``physics.model_config`` writes a model with."""
+        raise NotImplementedError(f"{type(self).__name__} cannot be written as a config")

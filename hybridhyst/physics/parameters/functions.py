@@ -50,6 +50,9 @@ class Constant(ParameterFunction):
     def describe(self) -> str:
         return f"{float(self.value.detach()):.6g}"
 
+    def config(self) -> float:
+        return float(self.value.detach())
+
 
 class Fixed(ParameterFunction):
     """A constant that is not trained (a buffer, per STYLE rule 3); it has no coordinates."""
@@ -66,6 +69,9 @@ class Fixed(ParameterFunction):
 
     def describe(self) -> str:
         return f"{float(self.value.detach()):.6g} (fixed)"
+
+    def config(self) -> float:
+        return float(self.value)
 
 
 class Polynomial(ParameterFunction):
@@ -91,12 +97,19 @@ class Polynomial(ParameterFunction):
         terms = [f"{float(a):+.6g}·{self.condition}^{i}" for i, a in enumerate(self.coeffs.detach())]
         return " ".join(terms)
 
+    def config(self) -> dict:
+        return {"kind": "polynomial", "coeffs": self.coeffs.detach().tolist(), "condition": self.condition}
+
 
 class Linear(Polynomial):
     """y = intercept + slope · c."""
 
     def __init__(self, slope: float, intercept: float, condition: str = "pressure_mpa"):
         super().__init__([intercept, slope], condition)
+
+    def config(self) -> dict:
+        intercept, slope = self.coeffs.detach().tolist()
+        return {"kind": "linear", "slope": slope, "intercept": intercept, "condition": self.condition}
 
 
 class _Exponential(ParameterFunction):
@@ -128,6 +141,11 @@ class _Exponential(ParameterFunction):
     def describe(self) -> str:
         v = {k: f"{float(getattr(self, k).detach()):.6g}" for k in ("y0", "a", "b")}
         return self._form.format(c=self.condition, **v)
+
+    def config(self) -> dict:
+        kind = next(k for k, cls in _FUNCTIONS.items() if cls is type(self))
+        return {"kind": kind, **{k: float(getattr(self, k).detach()) for k in self._attrs},
+                "condition": self.condition}
 
 
 class ExpRise(_Exponential):
@@ -207,6 +225,10 @@ class PerCondition(ParameterFunction):
         pairs = zip(self.levels.tolist(), self.level_values.detach().tolist())
         return ", ".join(f"{self.condition}={lv:g}: {v:.6g}" for lv, v in pairs)
 
+    def config(self) -> dict:
+        return {"kind": "per_condition", "levels": self.levels.tolist(), "values": self.values.detach().tolist(),
+                "condition": self.condition}
+
 
 def _renamed_level_values(module, state_dict, prefix, *args) -> None:
     """Load a state dict saved when ``PerCondition`` stored its values as ``values``."""
@@ -253,6 +275,11 @@ class NeuralFunction(ParameterFunction):
             return torch.func.functional_call(self.net, params, (c[:, None],)).squeeze(-1)
 
         return coords[:, :1] + torch.func.vmap(net_at)(coords[:, 1:])
+
+    def config(self) -> dict:
+        """The network's form only: its weights are in the model's state dict (``model.pt``)."""
+        return {"kind": "neural", "base": float(self.base.detach()), "condition": self.condition,
+                "hidden": self.net.hidden[0]}
 
 
 _FUNCTIONS = {
