@@ -55,7 +55,8 @@ class SequenceModule(L.LightningModule):
     kind = "base"
 
     def __init__(self, normaliser: dict, condition_names: Sequence[str] = (),
-                 network_conditions: Sequence[str] | None = None, features: Sequence[str] = ("t", "u", "du"), lr: float = 1e-3, weight_decay: float = 0.0,
+                 network_conditions: Sequence[str] | None = None, features: Sequence[str] = ("t", "u", "du"),
+                 lr: float = 1e-3, weight_decay: float = 0.0,
                  loss: str = "mse", lambda_phys: float = 0.0, units: dict | None = None,
                  nominal_lr: float | None = None, normalise_loss: bool = True, lr_schedule: str = "constant",
                  lr_final_ratio: float = 0.01):
@@ -76,7 +77,8 @@ class SequenceModule(L.LightningModule):
         self.network_conditions = list(self.condition_names if network_conditions is None else network_conditions)
         unknown = [c for c in self.network_conditions if c not in self.condition_names]
         if unknown:
-            raise ValueError(f"network condition(s) {unknown} are not among the batch's conditions {self.condition_names}")
+            raise ValueError(f"network condition(s) {unknown} are not among the batch's conditions "
+                             f"{self.condition_names}")
         self.feature_names = list(features)
         self.lr, self.weight_decay, self.loss_kind = float(lr), float(weight_decay), loss
         self.nominal_lr = float(lr if nominal_lr is None else nominal_lr)
