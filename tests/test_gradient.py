@@ -92,3 +92,38 @@ def test_diverging_simulation_is_a_clear_error():
     too_stiff = _dahl_model(0.1, 0.5, 1.0, 1e4)  # h·σ0|v|/Fc far beyond the RK4 stability limit
     with pytest.raises(ValueError, match="simulation diverged"):
         fit_gradient(too_stiff, records, steps=2, progress=False)
+
+
+def _bouc_wen_loops(samples_per_cycle: int) -> list[Record]:
+    """Classic Bouc–Wen damper loops (seed 004's caption shape, n = 4) integrated by scipy's solve_ivp on a grid
+    50 times finer than the samples, shared with nothing in the library: sharp loops that an explicit step per
+    sample cannot follow at 40 samples per cycle."""
+    from scipy.integrate import solve_ivp
+
+    A, beta, gamma, n, alpha, k = 6.0, 3.5, -2.5, 4.0, 0.35, 1.0
+    records = []
+    for amp in (2.0, 5.0):
+        t = np.arange(2 * samples_per_cycle + 1) / samples_per_cycle
+        v = lambda s: amp * 2 * np.pi * np.cos(2 * np.pi * s)  # noqa: E731
+        z = solve_ivp(lambda s, z: [A * v(s) - beta * abs(v(s)) * abs(z[0]) ** (n - 1) * z[0]
+                                    - gamma * v(s) * abs(z[0]) ** n], (0, t[-1]), [0.0], t_eval=t, rtol=1e-10,
+                      atol=1e-12, max_step=0.02 / samples_per_cycle).y[0]
+        x = amp * np.sin(2 * np.pi * t)
+        records.append(Record(f"a{amp}", t, x, alpha * k * x + (1 - alpha) * k * z, conditions={"amplitude": amp}))
+    return records
+
+
+def test_step_doubling_fits_loops_that_one_step_per_sample_cannot_follow():
+    from hybridhyst.physics.compositions import bouc_wen_classic
+
+    records = _bouc_wen_loops(40)
+    start = dict(A=5.0, beta=3.0, gamma=-2.0)
+    with pytest.raises(ValueError, match="diverged"):
+        fit_gradient(bouc_wen_classic(**start), records, steps=5, progress=False, backend="fast")
+    result = fit_gradient(bouc_wen_classic(**start), records, steps=30, lbfgs_steps=10, progress=False,
+                          backend="fast", resolve=True)
+    assert result.substeps >= 4 and result.resolution <= 1e-3
+    with torch.no_grad():
+        pred = simulate(result.model, records, substeps=result.substeps, backend="fast")
+    rmse = float(np.sqrt(np.mean(np.concatenate([(p[:, 0].numpy() - r.y) ** 2 for p, r in zip(pred, records)]))))
+    assert rmse < 0.05 * max(float(np.abs(r.y).max()) for r in records)

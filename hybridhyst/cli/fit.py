@@ -37,7 +37,7 @@ from .common import (
     torch_settings,
     write_json,
 )
-from .fit_report import _fmt, write_loop_figure, write_report
+from .fit_report import _fmt, resolution_note, write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
@@ -95,7 +95,8 @@ def _fit(model, train, cfg) -> tuple:
     result = fit_gradient(
         model, list(train), steps=int(fit.steps), lr=float(fit.lr), downsample=factors, loss=fit.loss,
         lbfgs_steps=int(fit.lbfgs_steps), progress=bool(cfg.progress), method=fit.method,
-        substeps=int(fit.substeps), backend=str(fit.backend),
+        substeps=int(fit.substeps), backend=str(fit.backend), resolve=bool(fit.resolve),
+        max_substeps=int(fit.max_substeps),
     )
     return result, factors
 
@@ -117,10 +118,11 @@ def _reference(cfg) -> dict | None:
     return {"source": ref.source, "held_out_rmse": to_plain(ref.held_out_rmse)}
 
 
-def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:
-    """RMSE on the evaluation grid for both parts: (scores, prediction frames, decimation factors)."""
+def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict]:
+    """RMSE on the evaluation grid (finer than the fit's, with the fit's sub-steps per sample) for both parts:
+    (scores, prediction frames, decimation factors)."""
     ev = cfg.evaluate
-    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": cfg.fit.substeps, "backend": cfg.fit.backend})
+    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": substeps, "backend": cfg.fit.backend})
     scores, frames, factors = {}, {}, {}
     for part, records in (("train", train), ("held_out", held_out)):
         f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.fit.frequency_condition)
@@ -132,7 +134,8 @@ def _score(model, train, held_out, cfg) -> tuple[dict, dict, dict]:
 
 def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:
     fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
-                "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s}
+                "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s,
+                "substeps": result.substeps, "resolution": result.resolution if cfg.fit.resolve else None}
     return {
         "parameters": model.parameter_table(),
         "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
@@ -157,7 +160,7 @@ def run(cfg: DictConfig) -> dict:
         model = instantiate(cfg.model, _convert_="all")
         check_model_data(model, [*train, *held_out])
         result, fit_factors = _fit(model, train, cfg)
-        scores, frames, eval_factors = _score(model, train, held_out, cfg)
+        scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
     loop_name = cfg.report.get("loop_record") or held_out.names[0]
     if loop_name not in frames:
@@ -185,6 +188,9 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
+    note = resolution_note(fit)
+    if note:
+        lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 

@@ -11,9 +11,10 @@ from pathlib import Path
 import pandas as pd
 
 from ..report.figures import Loop, write_loops
+from ..simulate.api import RESOLVED
 from .common import atomic_write
 
-__all__ = ["write_loop_figure", "write_report"]
+__all__ = ["resolution_note", "write_loop_figure", "write_report"]
 
 
 def write_loop_figure(path: Path, frame: pd.DataFrame, units: dict[str, str], title: str) -> Path:
@@ -37,6 +38,21 @@ def _grid(evaluate: dict) -> str:
              + (", depending on the record" if len(factors) > 1 else ""))
     per_cycle = evaluate.get("samples_per_cycle")
     return f"about {per_cycle} samples per loading cycle ({every})" if per_cycle else every
+
+
+def resolution_note(fit: dict) -> str:
+    """One sentence on the sub-steps per sample the fit chose by step doubling ('' where it did not choose)."""
+    change, substeps = fit.get("resolution"), fit.get("substeps", 1)
+    if change is None:
+        return ""
+    if not change <= RESOLVED:  # also inf / nan: diverged at the finest step tried
+        return (f"Not resolved: at {substeps} sub-steps per sample (fit.max_substeps) halving the step still changes "
+                f"the response by {100 * change:.2g} %; raise fit.max_substeps or keep more samples per cycle "
+                "(fit.samples_per_cycle) before trusting these values.")
+    if substeps == 1:
+        return ""
+    return (f"Integrated with {substeps} sub-steps per sample interval, chosen by step doubling (halving the step "
+            f"changes the response by {100 * change:.2g} %); fewer let the explicit scheme diverge or shape the loops.")
 
 
 def _parameter_lines(parameters: dict) -> list[str]:
@@ -83,7 +99,7 @@ def write_report(path: Path, summary: dict) -> Path:
         "",
         (f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
          f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; "
-         f"whole run {summary['wall_s']:.1f} s."),
+         f"whole run {summary['wall_s']:.1f} s. {resolution_note(fit)}".rstrip()),
         "",
         "## Fitted parameters",
         "",

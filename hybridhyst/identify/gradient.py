@@ -22,7 +22,7 @@ from ..data.records import Record, RecordSet
 from ..optim import line_search_loss
 from ..physics.parameters import project_to_bounds
 from ..progress import progress as progress_bar
-from ..simulate import simulate
+from ..simulate import resolved_substeps, simulate
 
 __all__ = ["FitResult", "fit_gradient", "record_loss"]
 
@@ -43,6 +43,9 @@ class FitResult:
     n_samples : number of (decimated) samples the loss was computed on.
     evaluations : number of simulations run (each one forward, most with a backward pass).
     wall_s : wall-clock time of the fit [s].
+    substeps : sub-steps per sample the fit ended with (chosen by step doubling with ``resolve``).
+    resolution : relative RMS change of the fitted model's response under halved steps at ``substeps``
+        (``nan`` without ``resolve``; above ``simulate.api.RESOLVED`` where ``max_substeps`` did not resolve it).
     """
 
     model: nn.Module
@@ -52,6 +55,8 @@ class FitResult:
     n_samples: int = 0
     evaluations: int = 0
     wall_s: float = 0.0
+    substeps: int = 1
+    resolution: float = math.nan
 
 
 def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], loss: str = "mse") -> torch.Tensor:
@@ -180,8 +185,8 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
 def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record], *, steps: int = 100,
                  lr: float = 0.05, downsample: int | Mapping[str, int] = 1, loss: str = "mse",
                  lbfgs_steps: int = 0, progress: bool = True, method: str = "rk4", substeps: int = 1,
-                 backend: str = "reference",
-                 input_channels: tuple[str, ...] = ("x",)) -> FitResult:
+                 backend: str = "reference", input_channels: tuple[str, ...] = ("x",), resolve: bool = False,
+                 max_substeps: int = 16) -> FitResult:
     """Fit every trainable parameter of ``model`` to ``records`` by gradient descent through ``simulate``.
 
     Parameters
@@ -198,6 +203,9 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     lbfgs_steps : L-BFGS iterations after Adam (strong-Wolfe line search; 0 to skip).
     progress : show tqdm progress bars.
     method, substeps, backend : fixed-step scheme and backend ("reference" or "fast") passed to ``simulate``.
+    resolve : choose the sub-steps per sample by step doubling (``simulate.resolved_substeps``, from
+        ``substeps`` up to ``max_substeps``) before fitting, and again after it: a fitted model that needs finer
+        steps than it was fitted with (its loops got sharper) is fitted on from there at the finer step.
 
     Returns
     -------
@@ -215,14 +223,28 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
     data = decimate_all(records, downsample, "gradient fitting")
-    sim_kwargs = {"method": method, "substeps": substeps, "input_channels": tuple(input_channels), "backend": backend}
-    obj = _Objective(model, data, loss, sim_kwargs)
+    sim_kwargs = {"method": method, "input_channels": tuple(input_channels), "backend": backend}
+
+    def resolved(at: int) -> tuple[int, float]:
+        return resolved_substeps(model, data, substeps=at, max_substeps=max_substeps, **sim_kwargs)
+
+    substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
     history: list[float] = []
-    n_adam = _run_adam(obj, steps, lr, progress, history) if steps else 0
-    n_lbfgs = _run_lbfgs(obj, lbfgs_steps, progress, history) if lbfgs_steps else 0
-    with torch.no_grad():
-        obj()  # score the final parameters too, so the best state covers the last step
-    obj.restore()
+    n_adam = n_lbfgs = evaluations = 0
+    while True:
+        obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": substeps})
+        n_adam += _run_adam(obj, steps, lr, progress, history) if steps else 0
+        n_lbfgs += _run_lbfgs(obj, lbfgs_steps, progress, history) if lbfgs_steps else 0
+        with torch.no_grad():
+            obj()  # score the final parameters too, so the best state covers the last step
+        obj.restore()
+        evaluations += obj.evaluations
+        if not resolve:
+            break
+        finer, resolution = resolved(substeps)
+        if finer == substeps:
+            break
+        substeps = finer  # the fitted model needs finer steps than it was fitted with: fit on from here
     return FitResult(model=model, loss=obj.best, history=history, steps={"adam": n_adam, "lbfgs": n_lbfgs},
-                     n_samples=sum(len(r) for r in data), evaluations=obj.evaluations,
-                     wall_s=time.perf_counter() - start)
+                     n_samples=sum(len(r) for r in data), evaluations=evaluations,
+                     wall_s=time.perf_counter() - start, substeps=substeps, resolution=resolution)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 
@@ -9,7 +11,9 @@ from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
 from .inputs import delayed, with_rates
 
-__all__ = ["simulate"]
+__all__ = ["resolved_substeps", "simulate"]
+
+RESOLVED = 1e-3  # relative RMS change of the response under halved steps below which it counts as resolved
 
 
 def _model_dtype(model) -> torch.dtype:
@@ -218,3 +222,30 @@ def _outputs(model, states, U, P):
     Pf = {k: {n: v.repeat_interleave(T) for n, v in d.items()} for k, d in P.items()}
     y = model.output(states.reshape(B * T, S), InputSample(Uf[:, 0], Uf[:, 1], Uf[:, 2]), Pf)
     return y.reshape(B, T, -1)
+
+
+def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 16, tol: float = RESOLVED,
+                      **kwargs) -> tuple[int, float]:
+    """Step doubling: the fewest sub-steps per sample, from ``substeps`` up to ``max_substeps``, at which halving
+    the step changes the simulated response of ``records`` by at most ``tol`` (RMS of the change over RMS of
+    the response). A stiff state (a sharp Bouc–Wen loop, a presliding friction bristle) on a coarse sample grid
+    otherwise diverges or is shaped by the integrator's error; the data set decides, not the user.
+
+    ``kwargs`` go to ``simulate`` (method, backend, input_channels). Returns ``(substeps, change)``: the change at
+    the returned sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
+    """
+    def response(s: int) -> torch.Tensor:
+        with torch.no_grad():
+            return torch.cat([y.reshape(-1) for y in simulate(model, records, substeps=s, **kwargs)])
+
+    s = max(int(substeps), 1)
+    coarse = response(s)
+    while True:
+        fine = response(2 * s)
+        scale = float(fine.pow(2).mean().sqrt())
+        change = float((coarse - fine).pow(2).mean().sqrt()) / max(scale, 1e-300)
+        if not math.isfinite(change) or not math.isfinite(scale):
+            change = math.inf
+        if change <= tol or 2 * s > max_substeps:
+            return s, change
+        s, coarse = 2 * s, fine

@@ -20,8 +20,8 @@ class BoucWenHysteresis(Effect):
     Special cases: classic Bouc–Wen (seed 004: D = 1, k1 = 0, κ = k), the benchmark of Noël & Schoukens
     (α = 0, κ = 1, D = 1, A = α_BW, β = β_BW γ_BW, γ = β_BW δ_BW), seed 003 (α = 0, κ = K_p / i_ratio).
 
-    Units (literal convention of the source; for seed 001 x in deg, F in Nm): k [F/x], k1 [F/x^3],
-    κ [F/z], z in x units times A/D, D, A, β, γ [-] in that literal sense, n [-]. Raw Bouc–Wen
+    Units (for seed 001 x in deg, F in Nm): k [F/x], k1 [F/x^3], κ [F/x], D, A, n [-]; z carries the unit of
+    x (of u when driven by the input), so β, γ [1/x^n] (1/u^n), which the seeds print as [-]. Raw Bouc–Wen
     parameters trade off (D, A, α, k); compare responses or identifiable combinations, not raw values.
     Valid range: α ∈ [0, 1] (α [-] is the elastic share of the stiffness); a trained α is kept in (0, 1) by
     a sigmoid, the end points (a purely hysteretic or purely elastic element) are for a fixed α.
@@ -42,8 +42,8 @@ class BoucWenHysteresis(Effect):
         "k1": ParameterSpec(0.0, "F/x^3", (-1e9, 1e9), "real", neutral=0.0, doc="cubic stiffness (seed 001)"),
         "D": ParameterSpec(1.0, "-", (1e-3, 1e3), "positive", doc="rate divisor (yield scale)"),
         "A": ParameterSpec(1.0, "-", (0.0, 1e6), "real", doc="hysteretic gain"),
-        "beta": ParameterSpec(0.5, "-", (-1e6, 1e6), "real", doc="shape parameter (|v| term)"),
-        "gamma": ParameterSpec(0.5, "-", (-1e6, 1e6), "real", doc="shape parameter (v term)"),
+        "beta": ParameterSpec(0.5, "1/x^n", (-1e6, 1e6), "real", doc="shape parameter (z ~ x; |v| term)"),
+        "gamma": ParameterSpec(0.5, "1/x^n", (-1e6, 1e6), "real", doc="shape parameter (z ~ x; v term)"),
         "n": ParameterSpec(1.0, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),
     }
 
@@ -69,6 +69,11 @@ class BoucWenHysteresis(Effect):
 
     def options(self) -> dict:
         return {"driven_by": self.driven_by}
+
+    def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
+        if self.driven_by == "input" and pname in ("beta", "gamma"):  # z follows the input u, not x
+            return super().param_unit(pname, {**(units or {}), "x": (units or {}).get("u", "u")})
+        return super().param_unit(pname, units)
 
     def _kappa(self, p):
         return p["kappa"] if self.free_kappa else p["D"] * p["k"]

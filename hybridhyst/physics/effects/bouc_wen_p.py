@@ -14,7 +14,7 @@ class BoucWenNormalised(Effect):
 
     (eq. 2 prints |x|^n in the β term; the Bouc–Wen form has |z|^n.) Seed 002 names the |v| term γ and
     the v term β — the reverse of seed 001 — and this effect keeps the paper's names. Units as printed
-    in its Table 2: ω [1/s], ξ [F*t/x], α [F/x], β, γ [x^-2 literally], A [-], n [-]; the table's values
+    in its Table 2: ω [1/s], ξ [F*t/x], α [F/x], β, γ [1/x^n] (z ~ x; printed x^-2), A [-], n [-]; the table's values
     are not mutually consistent (DESIGN.md "Units"), so treat them as a structure, not a calibration.
     Shapes: (batch,); state (batch, 1).
     """
@@ -28,8 +28,8 @@ class BoucWenNormalised(Effect):
         "xi": ParameterSpec(0.0, "F*t/x", (-1e4, 1e4), "real", doc="viscous damping ratio (as printed)"),
         "alpha": ParameterSpec(0.5, "F/x", (-1e5, 1e5), "real", doc="elastic/hysteretic split (as printed)"),
         "A": ParameterSpec(1.0, "-", (0.0, 1e3), "real", doc="hysteretic gain"),
-        "beta": ParameterSpec(0.5, "-", (-1e3, 1e3), "real", doc="shape parameter (v term)"),
-        "gamma": ParameterSpec(0.5, "-", (-1e3, 1e3), "real", doc="shape parameter (|v| term)"),
+        "beta": ParameterSpec(0.5, "1/x^n", (-1e3, 1e3), "real", doc="shape parameter (z ~ x; v term)"),
+        "gamma": ParameterSpec(0.5, "1/x^n", (-1e3, 1e3), "real", doc="shape parameter (z ~ x; |v| term)"),
         "n": ParameterSpec(1.48, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),
     }
 
