@@ -132,6 +132,26 @@ def test_diagnostics_measure_structure_and_whiteness():
     assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
 
 
+def test_a_residual_whose_size_grows_with_a_condition_is_named():
+    """Zero-mean noise three times larger at the largest amplitude: its mean depends on nothing (η² ≈ 0), its
+    size does, and the report's sentence names the condition with the RMS at both ends."""
+    from hybridhyst.discover.report import _scale_sentence
+
+    rng = np.random.default_rng(1)
+    records = make_records(None, noise_sd=NOISE).records
+    amps = sorted({r.conditions["amplitude_in"] for r in records})
+    gain = {a: 1.0 + 2.0 * (a - amps[0]) / (amps[-1] - amps[0]) for a in amps}
+    preds = [r.y - gain[r.conditions["amplitude_in"]] * NOISE * rng.standard_normal(len(r)) for r in records]
+    d = diagnose(records, preds, NOISE)
+    assert d["dependence"]["condition:amplitude_in"] < 0.02
+    rms = d["scale"]["amplitude_in"]
+    assert rms[f"{amps[-1]:g}"] / rms[f"{amps[0]:g}"] == pytest.approx(3.0, rel=0.15)
+    sentence = _scale_sentence(d["scale"], "kip")
+    assert "changes with amplitude_in" in sentence and f"at amplitude_in = {amps[0]:g}" in sentence
+    flat = diagnose(records, [r.y - NOISE * rng.standard_normal(len(r)) for r in records], NOISE)
+    assert _scale_sentence(flat["scale"], "kip") == ""
+
+
 def _coordinates_in_bic(entry: dict, n: int) -> float:
     """k solved from a step's reported ``bic_after`` and training RMSE: BIC = n ln(SSE/n) + k ln n with
     SSE/n = RMSE²; a whole number only if the loop computed the formula with a count of coordinates."""

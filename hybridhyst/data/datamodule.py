@@ -115,7 +115,7 @@ class _Sequences(Dataset):
         i, s = self.items[k]
         p = self.prepared[i]
         e = len(p["t"]) if self.window is None else s + self.window
-        item = {key: torch.as_tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y")}
+        item = {key: torch.tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y")}
         mask = torch.ones(e - s, dtype=torch.float64)
         if self.window is not None and s > 0:
             mask[: self.warmup] = 0.0  # the state starts from rest: its first samples are not scored

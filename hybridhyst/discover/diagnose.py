@@ -6,9 +6,12 @@ import math
 
 import numpy as np
 
-__all__ = ["FEATURES", "diagnose", "features", "structure_explained"]
+__all__ = ["FEATURES", "FEATURE_UNITS", "diagnose", "features", "structure_explained"]
 
 FEATURES = ("x", "v", "sign_v", "since_reversal", "phase", "time", "travel")
+# each feature's unit as a template in the records' units (x: the excitation's, t: time's; physics render_unit)
+FEATURE_UNITS = {"x": "x", "v": "x/t", "sign_v": "-", "since_reversal": "x", "phase": "rad", "time": "t",
+                 "travel": "x"}
 _BINS = 12
 
 
@@ -58,8 +61,8 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     Returns
     -------
     ``{"rmse", "noise_sd", "whiteness": {"lag_1", "lag_5", "lag_20", "white"}, "dependence": {feature:
-    η²}, "where": {"phase_deg": centre of the phase bin with the largest mean |residual|, "share":
-    that bin's share of the residual energy}}``; the features are those of ``features`` plus every
+    η²}, "scale": {condition: {level: residual RMS}}, "where": {"phase_deg": centre of the phase bin with the
+    largest mean |residual|, "share": that bin's share of the residual energy}}``; the features are those of ``features`` plus every
     numeric condition (per record). ``white`` is true when the lag-1 autocorrelation is below 0.3.
     """
     r_all, feats = [], {k: [] for k in FEATURES}
@@ -86,6 +89,11 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     k = int(np.argmax(energy))
     white = {key: float(np.nanmean([a[key] for a in acs])) for key in acs[0]}
     white["white"] = bool(white["lag_1"] < 0.3)
-    return {"rmse": float(np.sqrt(np.mean(r**2))), "noise_sd": noise_sd, "whiteness": white,
-            "dependence": dep, "where": {"phase_deg": float(np.degrees(0.5 * (edges[k] + edges[k + 1]))),
-                                         "share": float(energy[k] / max(energy.sum(), 1e-300))}}
+    scale = {}  # the residual's size per level of a condition: a spread that grows with it has no mean to show
+    for name, per_record in conds.items():
+        if len(per_record) == len(r_all) and len({float(a[0]) for a in per_record}) > 1:
+            levels = np.concatenate(per_record)
+            scale[name] = {f"{lv:g}": float(np.sqrt(np.mean(r[levels == lv] ** 2))) for lv in np.unique(levels)}
+    return {"rmse": float(np.sqrt(np.mean(r**2))), "noise_sd": noise_sd, "whiteness": white, "dependence": dep,
+            "scale": scale, "where": {"phase_deg": float(np.degrees(0.5 * (edges[k] + edges[k + 1]))),
+                                      "share": float(energy[k] / max(energy.sum(), 1e-300))}}

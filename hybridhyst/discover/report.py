@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from ..files import atomic_write, write_json
+from ..physics.parameters import render_unit
 from ..report.figures import write_loops
 from ..report.markdown import model_reuse_sentence
-from .diagnose import FEATURES, features
+from .diagnose import FEATURE_UNITS, FEATURES, features
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
 
@@ -38,6 +39,7 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
     names = [f for f in FEATURES if f != "sign_v"]
     fig, axes = plt.subplots(2, len(names), figsize=(min(2.2 * len(names), 14), 4.6), dpi=90, squeeze=False)
     train = result.splits["train"]
+    units = {"x": train[0].units.get("x") or "x", "t": train[0].units.get("t") or "s"} if train else None
     for row, stage in enumerate(("before", "after")):
         feats = [features(r.t, r.x) for r in train]
         res = [np.asarray(r.y) - p for r, p in zip(train, result.predictions[stage]["train"])]
@@ -49,6 +51,7 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
             ax.plot(f[::step], r[::step], ".", ms=1.2, alpha=0.4, color="C0" if row == 0 else "C2")
             eta = result.report[stage]["diagnostics"]["dependence"].get(name, 0.0)
             ax.set_title(f"{name} (η²={eta:.2f})", fontsize=7)
+            ax.set_xlabel(f"{name} [{render_unit(FEATURE_UNITS[name], units)}]", fontsize=7)
             ax.tick_params(labelsize=6)
             if col == 0:
                 unit = train[0].units.get("y") if train else None
@@ -142,7 +145,7 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
               f"{_fmt(u['whiteness']['lag_1'])} ({'white' if u['whiteness']['white'] else 'not white'}); the "
               f"residual depends most on {', '.join(f'{k} (η² = {v:.2f})' for k, v in dep)}; its largest share "
               f"({_fmt(100 * u['where']['share'])} %) sits at loop phase {u['where']['phase_deg']:.0f}°. "
-              + _leftover_sentence(u["residual_network"]) + (
+              + _leftover_sentence(u["residual_network"]) + _scale_sentence(u.get("scale") or {}, unit) + (
                   " **Structure is left that no library effect explains** (flagged: above 1.2 × the known noise, "
                   f"or the network recovers more than {FLAG_SHARE:.0%} of it); look at the residual figures for its "
                   "shape."
@@ -155,6 +158,22 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     if r.get("model_config"):
         lines += ["", model_reuse_sentence("discovered", r["model_config"])]
     return "\n".join(lines) + "\n"
+
+
+SCALE_RATIO = 1.5  # a residual RMS that changes by more than this factor across a condition's levels is named
+
+
+def _scale_sentence(scale: dict, unit: str) -> str:
+    """The condition across whose levels the residual's size changes most, where it changes by more than
+    ``SCALE_RATIO``: a spread that grows with a condition leaves its mean flat (η² ≈ 0) and is named here."""
+    spans = {k: (min(v.items(), key=lambda kv: kv[1]), max(v.items(), key=lambda kv: kv[1]))
+             for k, v in scale.items() if v}
+    spans = {k: (lo, hi) for k, (lo, hi) in spans.items() if hi[1] > SCALE_RATIO * max(lo[1], 1e-300)}
+    if not spans:
+        return ""
+    k, (lo, hi) = max(spans.items(), key=lambda kv: kv[1][1][1] / max(kv[1][0][1], 1e-300))
+    return (f" Its size changes with {k}: RMS {_fmt(lo[1])} {unit} at {k} = {lo[0]}, {_fmt(hi[1])} {unit} at "
+            f"{hi[0]} (× {hi[1] / max(lo[1], 1e-300):.1f}), a spread its mean does not show.")
 
 
 def _leftover_sentence(net: dict) -> str:

@@ -70,7 +70,7 @@ def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], 
         raise ValueError(f"unknown loss {loss!r}; choose one of {_LOSSES}")
     total, count = 0.0, 0
     for pred, r in zip(predictions, records):
-        err = pred[r.warmup:, 0] - torch.as_tensor(r.y[r.warmup:], dtype=pred.dtype, device=pred.device)
+        err = pred[r.warmup:, 0] - torch.tensor(r.y[r.warmup:], dtype=pred.dtype, device=pred.device)
         total = total + (err.square().sum() if loss == "mse" else err.abs().sum())
         count += len(r) - r.warmup
     return total / count

@@ -8,6 +8,7 @@ apps use them directly.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from pathlib import Path
 
@@ -160,6 +161,17 @@ def lbfgs_settings(cfg: DictConfig) -> dict | None:
     return out
 
 
+def _no_advert(record: logging.LogRecord) -> bool:
+    return "litlogger" not in record.getMessage()
+
+
+def _quiet_lightning() -> None:
+    """Drop Lightning's advertisement for its cloud logger from the run's terminal output (once per process)."""
+    log = logging.getLogger("lightning.pytorch.utilities.rank_zero")
+    if _no_advert not in log.filters:
+        log.addFilter(_no_advert)
+
+
 def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), after: L.Trainer | None = None
                   ) -> L.Trainer:
     """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
@@ -171,6 +183,7 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
     epochs, and a run resumed from it repeats the (deterministic, full-batch) L-BFGS stage."""
     from lightning.pytorch.callbacks import ModelCheckpoint
 
+    _quiet_lightning()
     t = cfg.trainer
     lbfgs = lbfgs_settings(cfg) if after is not None else None
     if after is not None and lbfgs is None:
