@@ -75,9 +75,10 @@ def test_identify_recovers_the_constants_at_one_pressure(tmp_path):
     from hybridhyst.cli import identify
 
     cfg = _compose("identify", tmp_path, "progress=false", "identify.fisher=false", "identify.pop=16",
-                   "identify.generations=10", "identify.restarts=2", "identify.lm_steps=10")
+                   "identify.generations=10", "identify.restarts=2", "identify.lm_steps=10", "noise_sd=0.2")
     summary = identify.run(cfg)
-    assert summary["records"] == ["p0.03"] and summary["rmse"] < 0.25   # noise sd 0.2 Nm
+    # noise_sd is the data's noise level, reported beside the RMSE; noise is added only by add_noise
+    assert summary["records"] == ["p0.03"] and summary["noise_sd"] == 0.2 and summary["rmse"] < 0.25
     truth = {"viscous.c": 6.7, "stiffness.k": 0.65, "cubic.k3": 0.0055, "friction.Fc": 9.5}  # x1.25 at 0.03 MPa
     for name, value in truth.items():
         assert summary["coordinates"][name] == pytest.approx(1.25 * value, rel=0.05), name

@@ -45,21 +45,21 @@ __all__ = ["add_noise", "main", "run"]
 def add_noise(records: RecordSet, noise_sd: float, seed: int) -> RecordSet:
     """Records with Gaussian noise of standard deviation ``noise_sd`` added to ``y`` (record i uses seed [seed, i])."""
     if not (math.isfinite(noise_sd) and noise_sd >= 0):
-        raise ValueError(f"noise_sd must be a non-negative number, got {noise_sd!r}")
+        raise ValueError(f"add_noise must be a non-negative number, got {noise_sd!r}")
     if noise_sd == 0:
         return records
     return RecordSet([r.with_noise(noise_sd, [int(seed), i]) for i, r in enumerate(records)], records.name)
 
 
 def _load(cfg) -> RecordSet:
-    """The records of ``cfg.data`` matching ``split.select``, with ``noise_sd`` noise added."""
-    noise_sd, seed = float(cfg.noise_sd or 0.0), int(cfg.seed or 0)
+    """The records of ``cfg.data`` matching ``split.select``, with ``add_noise`` Gaussian noise added."""
+    added, seed = float(cfg.add_noise or 0.0), int(cfg.seed or 0)
     records = load_records(cfg, split_options(cfg, ("select",))["select"])
-    return add_noise(records, noise_sd, seed)
+    return add_noise(records, added, seed)
 
 
 def _identify(model, records, cfg):
-    noise = float(cfg.noise_sd or 0.0)  # the top-level noise_sd (added to the records) is identify's too
+    noise = float(cfg.noise_sd or 0.0)  # the data's noise level (by default the noise added to them)
     opts = identify_options(cfg.identify, "identify", ("noise_sd",))
     return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), noise_sd=noise or None, **opts)
 
