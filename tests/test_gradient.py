@@ -101,13 +101,16 @@ def _bouc_wen_loops(samples_per_cycle: int) -> list[Record]:
     from scipy.integrate import solve_ivp
 
     A, beta, gamma, n, alpha, k = 6.0, 3.5, -2.5, 4.0, 0.35, 1.0
+
+    def rate(s, z, amp):
+        v = amp * 2 * np.pi * np.cos(2 * np.pi * s)
+        return [A * v - beta * abs(v) * abs(z[0]) ** (n - 1) * z[0] - gamma * v * abs(z[0]) ** n]
+
     records = []
     for amp in (2.0, 5.0):
         t = np.arange(2 * samples_per_cycle + 1) / samples_per_cycle
-        v = lambda s: amp * 2 * np.pi * np.cos(2 * np.pi * s)  # noqa: E731
-        z = solve_ivp(lambda s, z: [A * v(s) - beta * abs(v(s)) * abs(z[0]) ** (n - 1) * z[0]
-                                    - gamma * v(s) * abs(z[0]) ** n], (0, t[-1]), [0.0], t_eval=t, rtol=1e-10,
-                      atol=1e-12, max_step=0.02 / samples_per_cycle).y[0]
+        z = solve_ivp(rate, (0, t[-1]), [0.0], t_eval=t, args=(amp,), rtol=1e-10, atol=1e-12,
+                      max_step=0.02 / samples_per_cycle).y[0]
         x = amp * np.sin(2 * np.pi * t)
         records.append(Record(f"a{amp}", t, x, alpha * k * x + (1 - alpha) * k * z, conditions={"amplitude": amp}))
     return records
