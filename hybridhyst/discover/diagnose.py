@@ -63,7 +63,8 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     ``{"rmse", "noise_sd", "whiteness": {"lag_1", "lag_5", "lag_20", "white"}, "dependence": {feature:
     η²}, "scale": {condition: {level: residual RMS}}, "where": {"phase_deg": centre of the phase bin with the
     largest mean |residual|, "share": that bin's share of the residual energy}}``; the features are those of
-    ``features`` plus every numeric condition (per record). ``white`` is true when the lag-1 autocorrelation is below 0.3.
+    ``features`` plus every numeric condition (per record). ``white`` is true when the lag-1 autocorrelation is
+    below 0.3.
     """
     r_all, feats = [], {k: [] for k in FEATURES}
     conds: dict[str, list] = {}
