@@ -45,8 +45,9 @@ def build_datamodule(cfg: DictConfig) -> RecordDataModule:
     check_conditions(parts, network, "datamodule.conditions")
     model = []
     if cfg.get("module") in NOMINAL_MODULES:
-        model = [c for c in conditions_used(instantiate(cfg.model, _convert_="all")) if c not in network]
-        check_conditions(parts, model, f"model {cfg.model.get('name') or ''} (a parameter is a function of it)")
+        nominal = instantiate(cfg.model, _convert_="all")
+        model = [c for c in conditions_used(nominal) if c not in network]
+        check_conditions(parts, model, f"model {nominal.name!r} (a parameter is a function of it)")
     return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed),
                             past=encoder_past(cfg), conditions=[*network, *model], **d)
 
