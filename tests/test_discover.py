@@ -12,7 +12,7 @@ import pytest
 import torch
 
 from hybridhyst.data import Record, RecordSet
-from hybridhyst.discover import Scales, diagnose, discover, information_criterion, structure_explained
+from hybridhyst.discover import Scales, diagnose, discover, features, information_criterion, structure_explained
 from hybridhyst.discover.report import write_discovery
 from hybridhyst.simulate import simulate
 from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
@@ -130,6 +130,20 @@ def test_diagnostics_measure_structure_and_whiteness():
     d = diagnose(records.records, preds, NOISE)
     assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
     assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
+
+
+def test_a_structure_whose_sign_changes_with_the_condition_is_still_seen():
+    """A missing trend: the residual is (level − mean level) × a function of the loop phase, so pooled over the
+    levels its mean in every phase bin is 0 while within each level it is a function of the phase; η² is
+    measured within the levels (the pooled one saw nothing)."""
+    rng = np.random.default_rng(2)
+    records = make_records(None, noise_sd=NOISE).records
+    amps = sorted({r.conditions["amplitude_in"] for r in records})
+    weight = {a: i - (len(amps) - 1) / 2 for i, a in enumerate(amps)}
+    preds = [r.y - weight[r.conditions["amplitude_in"]] * 10 * NOISE * np.sin(features(r.t, r.x)["phase"])
+             - NOISE * rng.standard_normal(len(r)) for r in records]
+    d = diagnose(records, preds, NOISE)
+    assert d["dependence"]["phase"] > 0.5
 
 
 def test_a_residual_whose_size_grows_with_a_condition_is_named():

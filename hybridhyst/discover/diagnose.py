@@ -34,7 +34,8 @@ def features(t: np.ndarray, x: np.ndarray) -> dict[str, np.ndarray]:
 
 def structure_explained(feature: np.ndarray, r: np.ndarray, bins: int = _BINS) -> float:
     """Correlation ratio η² of the residual on a feature: the share of the residual's variance explained by
-    its mean in quantile bins of the feature (0: no dependence; 1: the residual is a function of it)."""
+    its mean in quantile bins of the feature (0: no dependence; 1: the residual is a function of it), in its
+    unbiased form ε² (noise alone in k bins of n samples would give η² ≈ (k − 1)/n; clipped at 0)."""
     r = np.asarray(r, float)
     total = float(np.var(r))
     if total <= 0 or len(r) < 2 * bins:
@@ -45,8 +46,19 @@ def structure_explained(feature: np.ndarray, r: np.ndarray, bins: int = _BINS) -
         groups = np.unique(f, return_inverse=True)[1]  # a few discrete values (sign, a condition)
     else:
         groups = np.clip(np.searchsorted(edges, f, side="right") - 1, 0, len(edges) - 2)
-    means = np.bincount(groups, weights=r) / np.maximum(np.bincount(groups), 1)
-    return float(np.var(means[groups]) / total)
+    counts = np.bincount(groups)
+    means = np.bincount(groups, weights=r) / np.maximum(counts, 1)
+    k, n = int((counts > 0).sum()), len(r)
+    within = float(np.sum((r - means[groups]) ** 2)) / max(n - k, 1)  # ε²: η² less the share noise alone gives
+    return max(0.0, 1.0 - within / (total * n / (n - 1)))
+
+
+def _within(feature: np.ndarray, r: np.ndarray, groups: list[np.ndarray]) -> float:
+    """η² of the residual on a feature within each group (boolean masks), weighted by the groups' residual
+    variance: the share of the within-group variance that the feature explains."""
+    parts = [(float(np.var(r[g])) * g.sum(), structure_explained(feature[g], r[g])) for g in groups]
+    total = sum(w for w, _ in parts)
+    return sum(w * e for w, e in parts) / total if total > 0 else 0.0
 
 
 def _autocorrelation(r: np.ndarray, lags=(1, 5, 20)) -> dict[str, float]:
@@ -79,7 +91,13 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))
         acs.append(_autocorrelation(r))
     r = np.concatenate(r_all)
-    dep = {k: structure_explained(np.concatenate(v), r) for k, v in feats.items()}
+    # a feature's η² within each operating point (records of equal numeric conditions), pooled by sample count: a
+    # structure whose sign or size changes with the condition cancels in one pooled mean per bin
+    points = [tuple(float(v[i][0]) for v in conds.values() if len(v) == len(r_all)) for i in range(len(r_all))]
+    ids = {p: j for j, p in enumerate(dict.fromkeys(points))}
+    point = np.concatenate([np.full(len(ri), ids[p]) for ri, p in zip(r_all, points)])
+    groups = [point == j for j in ids.values()]
+    dep = {k: _within(np.concatenate(v), r, groups) for k, v in feats.items()}
     for k, v in conds.items():
         if len(v) == len(r_all) and len({float(a[0]) for a in v}) > 1:
             dep[f"condition:{k}"] = structure_explained(np.concatenate(v), r)
