@@ -91,8 +91,8 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))
         acs.append(_autocorrelation(r))
     r = np.concatenate(r_all)
-    # a feature's η² within each operating point (records of equal numeric conditions), pooled by sample count: a
-    # structure whose sign or size changes with the condition cancels in one pooled mean per bin
+    # a feature's η² within each operating point (records of equal numeric conditions), weighted by the point's
+    # residual sum of squares: a structure whose sign or size changes with the condition cancels in a pooled mean
     points = [tuple(float(v[i][0]) for v in conds.values() if len(v) == len(r_all)) for i in range(len(r_all))]
     ids = {p: j for j, p in enumerate(dict.fromkeys(points))}
     point = np.concatenate([np.full(len(ri), ids[p]) for ri, p in zip(r_all, points)])

@@ -166,14 +166,18 @@ SCALE_RATIO = 1.5  # a residual RMS that changes by more than this factor across
 def _scale_sentence(scale: dict, unit: str) -> str:
     """The condition across whose levels the residual's size changes most, where it changes by more than
     ``SCALE_RATIO``: a spread that grows with a condition leaves its mean flat (η² ≈ 0) and is named here."""
-    spans = {k: (min(v.items(), key=lambda kv: kv[1]), max(v.items(), key=lambda kv: kv[1]))
-             for k, v in scale.items() if v}
-    spans = {k: (lo, hi) for k, (lo, hi) in spans.items() if hi[1] > SCALE_RATIO * max(lo[1], 1e-300)}
-    if not spans:
+    best = None  # (ratio, condition, (level, rms) lowest, (level, rms) highest)
+    for name, per_level in scale.items():
+        if per_level:
+            lo, hi = min(per_level.items(), key=lambda kv: kv[1]), max(per_level.items(), key=lambda kv: kv[1])
+            ratio = hi[1] / max(lo[1], 1e-300)
+            if ratio > SCALE_RATIO and (best is None or ratio > best[0]):
+                best = (ratio, name, lo, hi)
+    if best is None:
         return ""
-    k, (lo, hi) = max(spans.items(), key=lambda kv: kv[1][1][1] / max(kv[1][0][1], 1e-300))
-    return (f" Its size changes with {k}: RMS {_fmt(lo[1])} {unit} at {k} = {lo[0]}, {_fmt(hi[1])} {unit} at "
-            f"{hi[0]} (× {hi[1] / max(lo[1], 1e-300):.1f}), a spread its mean does not show.")
+    ratio, name, lo, hi = best
+    return (f" Its size changes with {name}: RMS {_fmt(lo[1])} {unit} at {name} = {lo[0]}, {_fmt(hi[1])} {unit} at "
+            f"{hi[0]} (× {ratio:.1f}), a spread its mean does not show.")
 
 
 def _leftover_sentence(net: dict) -> str:

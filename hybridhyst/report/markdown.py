@@ -26,6 +26,7 @@ def model_reuse_sentence(what: str, config: str) -> str:
             "`nominal_state=<this directory>`, `hybridhyst-train` starts from exactly these values instead of "
             "identifying the nominal again).")
 
+
 def _num(value) -> str:
     """A number with 4 significant digits; missing values as "—"."""
     if value is None or (isinstance(value, float) and math.isnan(value)):

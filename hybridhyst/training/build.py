@@ -46,8 +46,8 @@ def build_datamodule(cfg: DictConfig) -> RecordDataModule:
     model = []
     if cfg.get("module") in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all")
+        check_model_data(nominal, parts, "model")
         model = [c for c in conditions_used(nominal) if c not in network]
-        check_conditions(parts, model, f"model {nominal.name!r} (a parameter is a function of it)")
     return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed),
                             past=encoder_past(cfg), conditions=[*network, *model], **d)
 
