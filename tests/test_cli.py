@@ -86,6 +86,17 @@ def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path, capsys):
     assert "char_1Hz_36lb_1in" in report and "loop.png" in report
     assert (tmp_path / "loop.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(pd.read_parquet(tmp_path / "predictions.parquet")) > 0
+    # one L-BFGS iteration cannot converge: the report and the terminal say so
+    assert summary["fit"]["converged"] is False
+    assert "Not converged: L-BFGS reached fit.lbfgs_steps (1)" in report and "Not converged" in out
+
+
+def test_fit_loop_figure_takes_named_records_and_refuses_unknown_ones(tmp_path):
+    summary = fit.run(_compose("fit", tmp_path, [*TINY_FIT, "report.loop_records=char_1Hz_36lb_0.5in"]))
+    assert summary["loop_records"] == ["char_1Hz_36lb_0.5in"]
+    assert "char_1Hz_36lb_0.5in.*" in (tmp_path / "report.md").read_text()
+    with pytest.raises(ValueError, match="report.loop_records"):
+        fit.run(_compose("fit", tmp_path, [*TINY_FIT, "report.loop_records=[nope]"]))
 
 
 def test_fit_rejects_a_held_out_value_no_record_has(tmp_path):
@@ -217,6 +228,10 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
 
     message = _one_line_error(discover.run, _compose("discover", tmp_path, ["data=table"]), capsys)
     assert "data.path" in message and "split.held_out" in message and "need a value" in message
+    assert "(null: no held-out records)" in message
+    # hybridhyst-fit scores only held-out records: its hint does not offer null
+    message = _one_line_error(fit.run, _compose("fit", tmp_path, ["data=table", "data.path=x.csv"]), capsys)
+    assert "split.held_out=[{<condition>: [<values>]}]" in message and "null" not in message, message
     message = _one_line_error(discover.run, _compose("discover", tmp_path, ["title=${nope}"]), capsys)
     assert message.startswith("error: config key title: its interpolation does not resolve")
     message = _one_line_error(identify.run, _compose("identify", tmp_path, ['+select={mixture: "1:3"}']), capsys)

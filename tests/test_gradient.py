@@ -73,6 +73,17 @@ def test_history_and_best_state():
     assert result.loss <= min(result.history) and result.n_samples == len(records[0])
 
 
+def test_the_fit_says_whether_it_converged():
+    truth = _dahl_model(0.05, 0.8, 2.0, 15.0)
+    records = _sine_records(truth, amplitudes=(1.0,))
+    cut = fit_gradient(_dahl_model(0.1, 0.4, 1.0, 8.0), records, steps=0, lbfgs_steps=2, progress=False)
+    assert cut.converged is False and cut.steps["lbfgs"] == 2 and cut.last_change > 1e-6
+    done = fit_gradient(_dahl_model(0.1, 0.4, 1.0, 8.0), records, steps=0, lbfgs_steps=200, progress=False)
+    assert done.converged is True and done.steps["lbfgs"] < 200 and done.loss < 1e-3 * cut.loss
+    adam = fit_gradient(_dahl_model(0.1, 0.4, 1.0, 8.0), records, steps=3, progress=False)
+    assert adam.converged is None and np.isfinite(adam.last_change)
+
+
 def test_decimation_per_record_and_validation():
     truth = Constitutive({"viscous": Viscous(c=0.3)})
     records = _sine_records(truth, n=64)

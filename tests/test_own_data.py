@@ -92,6 +92,10 @@ def test_fit_runs_and_holds_out_two_pressures(tmp_path):
     assert summary["units"] == {"x": "deg", "y": "Nm"} and 0 < summary["rmse"]["held_out"] < 50
     assert summary["conditions"]["p0.05"] == {"pressure_mpa": 0.05}
     assert summary["reference"] is None and (tmp_path / "report.md").exists()
+    # loop.png draws every held-out record, the worst first: a miss is never hidden behind a good fit
+    per_record = summary["per_record"]
+    assert summary["loop_records"] == sorted(["p0.05", "p0.09"], key=lambda n: -per_record[n])
+    assert "every held-out record, the worst first" in (tmp_path / "report.md").read_text()
 
 
 def test_discover_runs_and_prints_a_summary(tmp_path, capsys):

@@ -110,6 +110,13 @@ _VALUE_HINTS = {
     "split.select": "'split.select={<condition>: [<values>]}' (null: every record)",
     "data.path": "data.path=<file.csv, or a pattern 'runs/*.csv'>",
 }
+_NEEDS_VALUE = {"fit": {"split.held_out"}}  # keys an app refuses as null (fit scores only held-out records)
+
+
+def _value_hint(key: str, cfg) -> str:
+    hint = _VALUE_HINTS.get(key, f"{key}=<value>")
+    app = cfg.get("app") if hasattr(cfg, "get") else None
+    return hint.split(" (null")[0] if key in _NEEDS_VALUE.get(app, ()) else hint
 
 
 def _missing_keys(cfg) -> list[str]:
@@ -153,7 +160,7 @@ def config_error_message(exc: Exception, cfg=None) -> str:
         if str(key) in missing:
             missing.remove(str(key))
         missing.insert(0, str(key))
-        hints = " ".join(_VALUE_HINTS.get(k, f"{k}=<value>") for k in missing)
+        hints = " ".join(_value_hint(k, cfg) for k in missing)
         what = f"config key {missing[0]} needs" if len(missing) == 1 else f"config keys {', '.join(missing)} need"
         return f"{what} a value (??? in the config): add {hints} to the command line"
     if isinstance(exc, InterpolationResolutionError):
@@ -166,8 +173,9 @@ def config_error_message(exc: Exception, cfg=None) -> str:
         leaf = str(key).rsplit(".", 1)[-1]
         close = difflib.get_close_matches(leaf, siblings, n=1, cutoff=0.6)
         hint = f"; is {prefix}{close[0]} a misspelling of it? " if close else "; "
+        none = " (null for none)" if "(null" in _value_hint(str(key), cfg) else ""
         return (f"config key {key} is missing (deleted or misspelt){hint}restore it (drop the '~{key}' override) "
-                f"or set it with '+{key}=<value>'" + (" (null for none)" if str(key) in _VALUE_HINTS else ""))
+                f"or set it with '+{key}=<value>'{none}")
     return f"config key {key}: {detail}"
 
 

@@ -37,9 +37,11 @@ from .common import (
     torch_settings,
     write_json,
 )
-from .fit_report import _fmt, resolution_note, write_loop_figure, write_report
+from .fit_report import _fmt, convergence_note, resolution_note, write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
+
+MAX_LOOPS = 6  # panels in loop.png
 
 
 
@@ -132,10 +134,24 @@ def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict
     return scores, frames, factors
 
 
+def _loop_records(chosen, held_out: list[str], per_record: dict, frames: dict) -> list[str]:
+    """The records drawn in ``loop.png``: those of ``report.loop_records`` (a name or a list), else the held-out
+    records, the worst first (at most ``MAX_LOOPS``: a large miss is never left out for a good fit)."""
+    if chosen is None:
+        return sorted(held_out, key=lambda n: -per_record[n])[:MAX_LOOPS]
+    names = [chosen] if isinstance(chosen, str) else [str(n) for n in chosen]
+    unknown = [n for n in names if n not in frames]
+    if unknown or not names:
+        raise ValueError(f"report.loop_records {unknown or names!r}: give record names of {sorted(frames)} "
+                         "(null: the held-out records)")
+    return names
+
+
 def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:
     fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
                 "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s,
-                "substeps": result.substeps, "resolution": result.resolution if cfg.fit.resolve else None}
+                "substeps": result.substeps, "resolution": result.resolution if cfg.fit.resolve else None,
+                "converged": result.converged, "last_change": result.last_change}
     return {
         "parameters": model.parameter_table(),
         "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
@@ -162,14 +178,14 @@ def run(cfg: DictConfig) -> dict:
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
-    loop_name = cfg.report.get("loop_record") or held_out.names[0]
-    if loop_name not in frames:
-        raise ValueError(f"report.loop_record {loop_name!r} is not one of the records {sorted(frames)}")
-    write_loop_figure(run_dir / "loop.png", frames[loop_name], summary["units"], loop_name)
+    loop_names = _loop_records(cfg.report.get("loop_records"), held_out.names, summary["per_record"], frames)
+    unit = summary["units"]["y"]
+    write_loop_figure(run_dir / "loop.png", [frames[n] for n in loop_names], summary["units"],
+                      [f"{n} (RMSE {summary['per_record'][n]:.3g} {unit})" for n in loop_names])
     table = pd.concat(frames.values(), ignore_index=True)
     atomic_write(run_dir / "predictions.parquet", lambda p: table.to_parquet(p, index=False))
     summary["wall_s"] = time.perf_counter() - start
-    summary["loop_record"] = loop_name
+    summary["loop_records"] = loop_names
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
     print("\n".join(summary_lines(summary, run_dir)), flush=True)
@@ -188,9 +204,8 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
-    note = resolution_note(fit)
-    if note:
-        lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ")
+    for note in (convergence_note(fit), resolution_note(fit)):
+        lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 

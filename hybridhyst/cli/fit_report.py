@@ -17,13 +17,22 @@ from .common import atomic_write
 __all__ = ["resolution_note", "write_loop_figure", "write_report"]
 
 
-def write_loop_figure(path: Path, frame: pd.DataFrame, units: dict[str, str], title: str) -> Path:
-    """Response–excitation loop of one held-out record, measured vs model, as PNG (``write_loops``).
+def write_loop_figure(path: Path, frames: list[pd.DataFrame], units: dict[str, str], titles: list[str]) -> Path:
+    """Response–excitation loops of held-out records, measured vs model, one panel each, as PNG (``write_loops``).
 
-    ``frame`` has columns x, y (measured) and y_model, on the evaluation grid; ``units`` ``{"x", "y"}``.
+    Each frame has columns x, y (measured) and y_model, on the evaluation grid; ``units`` ``{"x", "y"}``.
     """
-    loop = Loop(frame["x"].to_numpy(float), frame["y"].to_numpy(float), name=f"{title} (held out)", units=units)
-    return write_loops(path, [loop], {"model": [frame["y_model"].to_numpy(float)]})
+    loops = [Loop(f["x"].to_numpy(float), f["y"].to_numpy(float), name=t, units=units) for f, t in zip(frames, titles)]
+    return write_loops(path, loops, {"model": [f["y_model"].to_numpy(float) for f in frames]})
+
+
+def _loop_caption(summary: dict) -> str:
+    shown, held = summary["loop_records"], summary["split"]["held_out"]
+    if shown == sorted(held, key=lambda n: -summary["per_record"][n]):
+        return "every held-out record, the worst first"
+    if set(shown) <= set(held) and len(shown) < len(held):
+        return f"the {len(shown)} held-out records with the largest RMSE of {len(held)}, the worst first"
+    return ", ".join(shown)
 
 
 def _fmt(value) -> str:
@@ -38,6 +47,18 @@ def _grid(evaluate: dict) -> str:
              + (", depending on the record" if len(factors) > 1 else ""))
     per_cycle = evaluate.get("samples_per_cycle")
     return f"about {per_cycle} samples per loading cycle ({every})" if per_cycle else every
+
+
+def convergence_note(fit: dict) -> str:
+    """One sentence where the fit did not converge ('' where L-BFGS stopped by itself)."""
+    if fit.get("converged") is True:
+        return ""
+    change = fit.get("last_change")
+    fell = f"; the loss still fell by {100 * change:.2g} % in the last step" if (change or 0) > 0 else ""
+    if fit.get("converged") is None:
+        return f"Convergence not checked: no L-BFGS iterations after Adam (fit.lbfgs_steps=0){fell}."
+    return (f"Not converged: L-BFGS reached fit.lbfgs_steps ({fit['steps'].get('lbfgs')}) before the loss stopped "
+            f"changing{fell}; raise fit.lbfgs_steps before trusting these values.")
 
 
 def resolution_note(fit: dict) -> str:
@@ -97,9 +118,10 @@ def write_report(path: Path, summary: dict) -> Path:
         f"Training records ({len(summary['split']['train'])}): {', '.join(summary['split']['train'])}.  ",
         f"Held-out records ({len(summary['split']['held_out'])}): {', '.join(summary['split']['held_out'])}.",
         "",
-        (f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
-         f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; "
-         f"whole run {summary['wall_s']:.1f} s. {resolution_note(fit)}".rstrip()),
+        " ".join(filter(None, [
+            f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
+            f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; whole run "
+            f"{summary['wall_s']:.1f} s.", convergence_note(fit), resolution_note(fit)])),
         "",
         "## Fitted parameters",
         "",
@@ -114,8 +136,8 @@ def write_report(path: Path, summary: dict) -> Path:
         "",
         *_reference_lines(summary, unit),
         "",
-        (f"![loop](loop.png)  \n*Response–excitation loop of the held-out record {summary['loop_record']}: "
-         "measured (grey) and model (red).*"),
+        (f"![loops](loop.png)  \n*Response–excitation loops, measured (grey) and model (red): "
+         f"{_loop_caption(summary)}.*"),
         "",
     ]
     return atomic_write(path, "\n".join(lines))

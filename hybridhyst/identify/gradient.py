@@ -28,6 +28,7 @@ __all__ = ["FitResult", "fit_gradient", "record_loss"]
 
 _LOSSES = ("mse", "mae")
 _MAX_RETRIES = 6
+TOLERANCE = 1e-9  # L-BFGS stops when one iteration changes the loss by at most this (relative)
 
 
 @dataclass
@@ -46,6 +47,9 @@ class FitResult:
     substeps : sub-steps per sample the fit ended with (chosen by step doubling with ``resolve``).
     resolution : relative RMS change of the fitted model's response under halved steps at ``substeps``
         (``nan`` without ``resolve``; above ``simulate.api.RESOLVED`` where ``max_substeps`` did not resolve it).
+    converged : whether L-BFGS stopped by itself (the loss changed by at most ``TOLERANCE``, relative, in one
+        iteration) rather than at ``lbfgs_steps``; None where no L-BFGS ran (Adam alone is not checked).
+    last_change : relative fall of the loss in the last optimiser step (L-BFGS iteration, else Adam step).
     """
 
     model: nn.Module
@@ -57,6 +61,8 @@ class FitResult:
     wall_s: float = 0.0
     substeps: int = 1
     resolution: float = math.nan
+    converged: bool | None = None
+    last_change: float = math.nan
 
 
 def record_loss(predictions: Sequence[torch.Tensor], records: Sequence[Record], loss: str = "mse") -> torch.Tensor:
@@ -145,7 +151,8 @@ def _run_adam(obj: _Objective, steps: int, lr: float, progress: bool, history: l
     return done
 
 
-def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]) -> int:
+def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]) -> tuple[int, bool]:
+    """L-BFGS iterations (at most ``iters``): (iterations taken, whether it stopped by itself)."""
     params = [p for p in obj.model.parameters() if p.requires_grad]
     # max_iter=1 per call (one progress tick per iteration); max_eval leaves room for the line search
     opt = torch.optim.LBFGS(params, lr=1.0, max_iter=1, max_eval=11, history_size=20, line_search_fn="strong_wolfe")
@@ -166,7 +173,7 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
             value.backward()
         return line_search_loss(value, obj.best * scale[0])
 
-    done = 0
+    done, stopped = 0, False
     with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:
         for _ in range(iters):
             value = opt.step(closure)
@@ -177,9 +184,10 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
             history.append(float(value.detach()) / scale[0])
             bar.update(1)
             bar.set_postfix(loss=f"{history[-1]:.4g}")
-            if len(history) > 1 and abs(history[-2] - history[-1]) <= 1e-9 * max(abs(history[-1]), 1e-12):
+            if len(history) > 1 and abs(history[-2] - history[-1]) <= TOLERANCE * max(abs(history[-1]), 1e-12):
+                stopped = True
                 break
-    return done
+    return done, stopped
 
 
 def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record], *, steps: int = 100,
@@ -231,10 +239,13 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
     history: list[float] = []
     n_adam = n_lbfgs = evaluations = 0
+    converged = None
     while True:
         obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": substeps})
         n_adam += _run_adam(obj, steps, lr, progress, history) if steps else 0
-        n_lbfgs += _run_lbfgs(obj, lbfgs_steps, progress, history) if lbfgs_steps else 0
+        if lbfgs_steps:
+            done, converged = _run_lbfgs(obj, lbfgs_steps, progress, history)
+            n_lbfgs += done
         with torch.no_grad():
             obj()  # score the final parameters too, so the best state covers the last step
         obj.restore()
@@ -245,6 +256,8 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         if finer == substeps:
             break
         substeps = finer  # the fitted model needs finer steps than it was fitted with: fit on from here
+    last_change = (history[-2] - history[-1]) / abs(history[-2]) if len(history) > 1 and history[-2] else math.nan
     return FitResult(model=model, loss=obj.best, history=history, steps={"adam": n_adam, "lbfgs": n_lbfgs},
                      n_samples=sum(len(r) for r in data), evaluations=evaluations,
-                     wall_s=time.perf_counter() - start, substeps=substeps, resolution=resolution)
+                     wall_s=time.perf_counter() - start, substeps=substeps, resolution=resolution,
+                     converged=converged, last_change=last_change)
