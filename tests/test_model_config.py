@@ -82,3 +82,13 @@ def test_a_network_is_written_as_its_form_and_loaded_with_its_weights():
     assert not torch.allclose(_response(again), _response(model))
     again.load_state_dict(model.state_dict())
     torch.testing.assert_close(_response(again), _response(model), rtol=1e-12, atol=1e-12)
+
+
+def test_a_networks_scales_are_written_from_its_state_not_its_constructor():
+    """A state dict loaded after construction sets the scales and condition normalisation; the config written
+    afterwards must carry them (not the constructor's), so the rebuilt model needs no state dict for them."""
+    made = EFFECTS["neural"](inputs=("x", "v"), scales={"x": 1.0, "v": 1.0, "F": 1.0}, conditions={"I": (0.0, 1.0)})
+    saved = EFFECTS["neural"](inputs=("x", "v"), scales={"x": 2.0, "v": 8.0, "F": 3.0}, conditions={"I": (0.5, 0.2)})
+    made.load_state_dict(saved.state_dict())
+    assert made.options()["scales"] == saved.options()["scales"] == {"x": 2.0, "v": 8.0, "F": 3.0}
+    assert made.options()["conditions"] == saved.options()["conditions"] == {"I": [0.5, 0.2]}

@@ -94,8 +94,17 @@ class NeuralEffect(Effect):
         self._last: tuple | None = None
 
     def options(self) -> dict:
-        """The network's form; its weights are in the model's state dict (``model.pt``)."""
-        return dict(self._options)
+        """The network's form; its weights are in the model's state dict (``model.pt``). Scales and condition
+        normalisation are read from the buffers (a state dict loaded after construction sets them)."""
+        options = {**self._options, "scales": dict(self._options["scales"])}
+        scales = options["scales"]
+        scales.update({k: float(v) for k, v in zip(self.inputs, self.input_scale.tolist())})
+        scales["F"] = float(self.force_scale)
+        if "x" in scales:  # the rate scale is s_v / s_x
+            scales["v"] = float(self.rate_scale) * scales["x"]
+        options["conditions"] = {c: [float(m), float(sd)] for c, m, sd in
+                                 zip(self.condition_names, self.condition_mean.tolist(), self.condition_sd.tolist())}
+        return options
 
     def value_names(self) -> list[str]:
         return [f"@{c}" for c in self.condition_names]
