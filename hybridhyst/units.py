@@ -4,6 +4,7 @@ the closest one). Below every layer: data reads with it, reports label axes with
 from __future__ import annotations
 
 import difflib
+from collections.abc import Mapping
 
 __all__ = ["KNOWN_UNITS", "UNIT_QUANTITY", "check_units"]
 
@@ -51,6 +52,9 @@ def check_units(units: dict[str, str] | None, where: str, channels: dict[str, st
         For a unit not in ``KNOWN_UNITS`` (naming the closest known unit) or a unit given for a
         channel that does not exist.
     """
+    if units is not None and not isinstance(units, Mapping):
+        raise ValueError(f"{where}: units must be a mapping {{channel: unit}}, e.g. 'data.units={{t: s, x: mm, y: N}}' "
+                         f"(quoted on the command line, so the shell keeps the braces); got {units!r}")
     out = dict(units or {})
     for channel, unit in out.items():
         if channels is not None and channel not in channels:

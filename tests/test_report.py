@@ -276,6 +276,9 @@ def test_axis_labels_come_from_the_one_unit_table():
     check_units({"y": "kip"}, "test")
     with pytest.raises(ValueError, match="did you mean 'kip'"):
         check_units({"y": "Kip"}, "test")
+    # data.units=y:N (or an unquoted {t:s,y:N} the shell expanded) arrives as a string
+    with pytest.raises(ValueError, match="units must be a mapping .* got 'y:N'"):
+        check_units("y:N", "test")
 
 
 def test_write_loops_is_atomic(tmp_path, monkeypatch):
@@ -321,13 +324,13 @@ def test_comparison_report_loops_come_from_the_loop_figure(tree, tmp_path, drawn
 def test_fit_loop_figure_comes_from_the_loop_figure(tmp_path, drawn):
     from hybridhyst.cli.fit_report import write_loop_figure
 
-    rec = _record(0)
-    frame = pd.DataFrame({"x": rec.x, "y": rec.y, "y_model": rec.y - 0.2})
-    write_loop_figure(tmp_path / "loop.png", frame, {"x": "in", "y": "kip"}, "char_1Hz")
+    rec, other = _record(0), _record(1)
+    frames = [pd.DataFrame({"x": r.x, "y": r.y, "y_model": r.y - 0.2}) for r in (rec, other)]
+    write_loop_figure(tmp_path / "loop.png", frames, {"x": "in", "y": "kip"}, ["char_1Hz", "char_2Hz"])
     (fig,) = drawn
-    (ax,) = _panels(fig)
-    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("displacement x [in]", "force y [kip]",
-                                                                   "char_1Hz (held out)")
+    ax, second = _panels(fig)
+    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_title()) == ("displacement x [in]", "force y [kip]", "char_1Hz")
+    assert second.get_title() == "char_2Hz"
     np.testing.assert_array_equal(ax.get_lines()[1].get_ydata(), rec.y - 0.2)
     assert _legend(fig) == ["measured", "model"] and (tmp_path / "loop.png").exists()
 

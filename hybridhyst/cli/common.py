@@ -16,6 +16,7 @@ used), ``split.held_out`` (test) and ``split.val`` (validation), each a list of 
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import re
 import sys
@@ -31,6 +32,7 @@ from ..files import (  # noqa: F401 (the apps' run-directory I/O)
     write_json,
 )
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
+from ..simulate.api import RESOLVED
 from ..training.config import (  # noqa: F401 (the one config reader of every app, re-exported)
     check_kwargs,
     check_model_data,
@@ -94,6 +96,22 @@ def write_model(run_dir, model, config_name: str, what: str) -> str:
               f"# Network weights, where the model has any, are in {run_dir / 'model.pt'} (nominal_state=).\n")
     atomic_write(run_dir / "model" / f"{config_name}.yaml", header + OmegaConf.to_yaml(model_config(model)))
     return f"'hydra.searchpath=[file://{run_dir}]' model={config_name}"
+
+
+def resolution_note(info: dict, settings: str) -> str:
+    """One sentence on the sub-steps per sample an app chose by step doubling ('' where it did not choose, or
+    kept one): ``info`` has ``substeps`` and ``resolution``; ``settings`` is the app's config group (fit, identify)."""
+    change, substeps = info.get("resolution"), info.get("substeps", 1)
+    if change is None or (isinstance(change, float) and math.isnan(change)):
+        return ""
+    if not change <= RESOLVED:  # also inf: diverged at the finest step tried
+        return (f"Not resolved: at {substeps} sub-steps per sample ({settings}.max_substeps) halving the step still "
+                f"changes the response by {100 * change:.2g} %; raise {settings}.max_substeps or keep more samples "
+                "per cycle before trusting these values.")
+    if substeps == 1:
+        return ""
+    return (f"Integrated with {substeps} sub-steps per sample interval, chosen by step doubling (halving the step "
+            f"changes the response by {100 * change:.2g} %); fewer let the explicit scheme diverge or shape the loops.")
 
 
 def check_app(cfg: DictConfig, app: str) -> None:

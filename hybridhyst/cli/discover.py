@@ -94,7 +94,9 @@ def run(cfg: DictConfig) -> dict:
         records, parts = load_split(cfg)
         conditions = to_plain(d.conditions)  # checked by discover, before any fitting
         model = instantiate(cfg.model, _convert_="all").double()
-        check_model_data(model, records)  # before the first fit (the loop checks the conditions again)
+        note = check_model_data(model, records)  # before the first fit (the loop checks the conditions again)
+        if note:  # records without units: the model's are assumed
+            print(note, flush=True)
         split = split_options(cfg, ("held_out", "val"))
         from ..identify import identify
 

@@ -32,12 +32,13 @@ from .common import (
     instantiate,
     load_records,
     prepare_run_dir,
+    resolution_note,
     split_options,
     to_plain,
     torch_settings,
     write_json,
 )
-from .fit_report import _fmt, convergence_note, resolution_note, write_loop_figure, write_report
+from .fit_report import _fmt, convergence_note, write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
@@ -174,14 +175,16 @@ def run(cfg: DictConfig) -> dict:
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         train, held_out = load_split(cfg)
         model = instantiate(cfg.model, _convert_="all")
-        check_model_data(model, [*train, *held_out])
+        note = check_model_data(model, [*train, *held_out])
+        if note:  # records without units: the model's are assumed
+            print(note, flush=True)
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
     loop_names = _loop_records(cfg.report.get("loop_records"), held_out.names, summary["per_record"], frames)
-    unit = summary["units"]["y"]
+    unit = f" {summary['units']['y']}".rstrip()
     write_loop_figure(run_dir / "loop.png", [frames[n] for n in loop_names], summary["units"],
-                      [f"{n} (RMSE {summary['per_record'][n]:.3g} {unit})" for n in loop_names])
+                      [f"{n} (RMSE {summary['per_record'][n]:.3g}{unit})" for n in loop_names])
     table = pd.concat(frames.values(), ignore_index=True)
     atomic_write(run_dir / "predictions.parquet", lambda p: table.to_parquet(p, index=False))
     summary["wall_s"] = time.perf_counter() - start
@@ -204,7 +207,7 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
-    for note in (convergence_note(fit), resolution_note(fit)):
+    for note in (convergence_note(fit), resolution_note(fit, "fit")):
         lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines

@@ -11,10 +11,9 @@ from pathlib import Path
 import pandas as pd
 
 from ..report.figures import Loop, write_loops
-from ..simulate.api import RESOLVED
-from .common import atomic_write
+from .common import atomic_write, resolution_note
 
-__all__ = ["resolution_note", "write_loop_figure", "write_report"]
+__all__ = ["convergence_note", "write_loop_figure", "write_report"]
 
 
 def write_loop_figure(path: Path, frames: list[pd.DataFrame], units: dict[str, str], titles: list[str]) -> Path:
@@ -59,21 +58,6 @@ def convergence_note(fit: dict) -> str:
         return f"Convergence not checked: no L-BFGS iterations after Adam (fit.lbfgs_steps=0){fell}."
     return (f"Not converged: L-BFGS reached fit.lbfgs_steps ({fit['steps'].get('lbfgs')}) before the loss stopped "
             f"changing{fell}; raise fit.lbfgs_steps before trusting these values.")
-
-
-def resolution_note(fit: dict) -> str:
-    """One sentence on the sub-steps per sample the fit chose by step doubling ('' where it did not choose)."""
-    change, substeps = fit.get("resolution"), fit.get("substeps", 1)
-    if change is None:
-        return ""
-    if not change <= RESOLVED:  # also inf / nan: diverged at the finest step tried
-        return (f"Not resolved: at {substeps} sub-steps per sample (fit.max_substeps) halving the step still changes "
-                f"the response by {100 * change:.2g} %; raise fit.max_substeps or keep more samples per cycle "
-                "(fit.samples_per_cycle) before trusting these values.")
-    if substeps == 1:
-        return ""
-    return (f"Integrated with {substeps} sub-steps per sample interval, chosen by step doubling (halving the step "
-            f"changes the response by {100 * change:.2g} %); fewer let the explicit scheme diverge or shape the loops.")
 
 
 def _parameter_lines(parameters: dict) -> list[str]:
@@ -121,7 +105,7 @@ def write_report(path: Path, summary: dict) -> Path:
         " ".join(filter(None, [
             f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
             f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; whole run "
-            f"{summary['wall_s']:.1f} s.", convergence_note(fit), resolution_note(fit)])),
+            f"{summary['wall_s']:.1f} s.", convergence_note(fit), resolution_note(fit, "fit")])),
         "",
         "## Fitted parameters",
         "",

@@ -33,6 +33,7 @@ from .common import (
     instantiate,
     load_records,
     prepare_run_dir,
+    resolution_note,
     split_options,
     torch_settings,
     write_json,
@@ -71,7 +72,8 @@ def _num(v) -> str:
 def _report(summary: dict) -> str:
     lines = [f"# Identification: {summary['model']}", "",
              f"Search {summary['search']['method']} + refinement {summary['search']['refine']}; "
-             f"{summary['search']['evaluations']} simulated rows; wall time {summary['wall_s']:.3g} s.", "",
+             f"{summary['search']['evaluations']} simulated rows; wall time {summary['wall_s']:.3g} s. "
+             f"{resolution_note(summary['simulation'], 'identify')}".rstrip(), "",
              f"Pooled RMSE {summary['rmse']:.4g} {summary['response_unit']}".rstrip()
              + (f" (noise sd {summary['noise_sd']:g})" if summary['noise_sd'] else ""), "",
              f"| record | RMSE [{summary['response_unit'] or '-'}] |", "|---|---|"]
@@ -109,13 +111,17 @@ def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]
     noise = f" (noise sd {summary['noise_sd']:g})" if summary["noise_sd"] else ""
     lines = [f"identify: {summary['model']} on {len(summary['records'])} record(s): RMSE {summary['rmse']:.4g}{unit}"
              f"{noise}, {summary['search']['identify_wall_s']:.3g} s"]
-    coords = [f"{n} = {v:.4g} {summary['units'].get(n, '')}".rstrip() for n, v in summary["coordinates"].items()]
+    sds = summary["uncertainty"] or {}
+    coords = [f"{n} = {v:.4g}{f' ± {sds[n]:.2g}' if n in sds else ''} {summary['units'].get(n, '')}".rstrip()
+              for n, v in summary["coordinates"].items()]
     lines += textwrap.wrap(", ".join(coords), 116, initial_indent="  ", subsequent_indent="  ")
     if summary["non_identifiable"]:
         traded = ", ".join(summary["non_identifiable"])
         lines.append(f"  not identifiable from these records (they trade off): {traded}")
     if summary["at_bounds"]:
         lines.append(f"  {_edge_line(summary)}")
+    note = resolution_note(summary["simulation"], "identify")
+    lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     if reuse:
         lines.append(f"  the identified model in another app: {reuse}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
@@ -142,6 +148,8 @@ def _summary(cfg, model, result, records) -> dict:
         "uncertainty": result.uncertainty,
         "search": {"method": result.search, "refine": cfg.identify.refine, "evaluations": result.evaluations,
                    "identify_wall_s": result.wall_s},
+        "simulation": {"substeps": result.substeps,
+                       "resolution": None if math.isnan(result.resolution) else result.resolution},
         "history": result.history,
     }
 
@@ -153,11 +161,13 @@ def run(cfg: DictConfig) -> dict:
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         records = _load(cfg)
         model = instantiate(cfg.model, _convert_="all")
-        check_model_data(model, records)
+        note = check_model_data(model, records)
+        if note:  # records without units: the model's are assumed
+            print(note, flush=True)
         result = _identify(model, records, cfg)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
-                             substeps=int(cfg.identify.substeps))
+                             substeps=result.substeps)
         summary = _summary(cfg, model, result, records)
     shown = list(records)[: max(1, int(cfg.report.max_figures))]
     write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")

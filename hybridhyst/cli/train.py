@@ -73,10 +73,11 @@ def build_module(cfg: DictConfig, dm: RecordDataModule):
 
 def _identify_settings(cfg: DictConfig) -> dict:
     """identify() keyword arguments: conf/identify.yaml's ``identify:`` block (one source of the defaults),
-    the training simulation settings, no Fisher analysis, then ``nominal_init.settings``."""
+    the training simulation settings (its sub-steps, not ones step doubling would choose: the nominal is
+    identified as training simulates it), no Fisher analysis, then ``nominal_init.settings``."""
     block = OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"]
     settings = {"fisher": False, "ode_method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps),
-                "backend": cfg.simulation.backend}
+                "backend": cfg.simulation.backend, "resolve": False}
     settings.update(to_plain((cfg.get("nominal_init") or {}).get("settings")) or {})
     return identify_options(block, "nominal_init.settings", **settings)
 

@@ -19,7 +19,7 @@ from torch import nn
 from ..data.batch import record_batches
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
-from ..simulate import simulate
+from ..simulate import resolved_substeps, simulate
 from ..simulate.inputs import with_rates
 from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .refine import levenberg_marquardt
@@ -45,6 +45,9 @@ class IdentificationResult:
     wall_s : wall time [s]; evaluations : simulated population rows (× records); search : method name.
     at_bounds : ``{name: "lower" | "upper"}``, coordinates that ended at an edge of the search box (within
     0.1 % of its width, on the log scale where it searches one): the box, not the data, set them.
+    substeps : sub-steps per sample the result was simulated with (chosen by step doubling with ``resolve``).
+    resolution : relative RMS change of the identified model's response under halved steps at ``substeps``
+    (``nan`` without ``resolve``; above ``simulate.api.RESOLVED`` where ``max_substeps`` did not resolve it).
     """
 
     model: nn.Module
@@ -61,6 +64,8 @@ class IdentificationResult:
     evaluations: int = 0
     search: str = ""
     at_bounds: dict[str, str] = field(default_factory=dict)
+    substeps: int = 1
+    resolution: float = math.nan
 
 
 class RecordsProblem:
@@ -222,8 +227,8 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
              bounds: Mapping[str, tuple[float, float]] | None = None, box_factor: float = 10.0,
              noise_sd: float | None = None, target: float | None = None, seed: int = 0, fisher: bool = True,
              jacobian: str = "auto", progress: bool = True, input_channels=("x",), ode_method: str = "rk4",
-             substeps: int = 1, search_decimate: int = 1, backend: str = "fast",
-             torch_threads: int | None = 1) -> IdentificationResult:
+             substeps: int = 1, search_decimate: int = 1, backend: str = "fast", resolve: bool = False,
+             max_substeps: int = 16, torch_threads: int | None = 1) -> IdentificationResult:
     """Identify a nominal model's free parameters from records: global search, refinement, identifiability.
 
     Parameters
@@ -251,6 +256,11 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
     search_decimate : run the global search on every ``search_decimate``-th sample of each record (the
         refinement and every reported cost use all samples). 2 halves the search's cost; the coarser grid
         only has to rank members, so it works while the input is smooth at twice the sample interval.
+    resolve, max_substeps : step doubling (``simulate.resolved_substeps``): once identified, the fewest sub-steps
+        per sample (from ``substeps`` up to ``max_substeps``) at which halving the step changes the model's
+        response by at most 0.1 %; where that is more than ``substeps`` the refinement goes on at the finer
+        step from the identified point, and the check is repeated. A sharp loop on a coarse sample grid is
+        otherwise fitted as the integrator's error shapes it.
     torch_threads : torch intra-op threads during the run (restored after; None leaves them). The compiled
         simulator already runs rows in parallel (numba); torch threads competing with it made identification
         of the seed 001 loop about 5x slower on a 2-core machine.
@@ -272,7 +282,7 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
 
 def _identify(model, records, *, method, pop, generations, rounds, refine, restarts, lm_steps, adam_steps,
               lbfgs_steps, lr, bounds, box_factor, noise_sd, target, seed, fisher, jacobian, progress, input_channels,
-              ode_method, substeps, search_decimate, backend) -> IdentificationResult:
+              ode_method, substeps, search_decimate, backend, resolve, max_substeps) -> IdentificationResult:
     start = time.perf_counter()
     records = _records(records)
     space = SearchSpace(model, bounds, factor=box_factor, condition_ranges=condition_ranges(records))
@@ -294,16 +304,32 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         names = culprits(problem, x)
         raise ValueError(f"identification ended non-finite: every simulation diverged; parameters driving it: "
                          f"{names}; narrow their bounds, add substeps or a finer time grid")
-    if fisher and target is not None and cost <= target:
-        # the search stopped at the target, short of the least-squares minimum; the Fisher standard deviations
-        # describe the minimum's scatter, so go on to it (the early-stopped point scatters more than they say)
+    def go_on(problem, x, cost, evals):  # more Levenberg–Marquardt from x on ``problem``
         ref = levenberg_marquardt(problem.residuals, space, x[None], iters=int(lm_steps), progress=progress)
         history["refine"] += ref.history
         evals += ref.evaluations * len(problem.records)
-        if ref.cost < cost:
-            x, cost = ref.x, ref.cost
+        return (ref.x, ref.cost, evals) if ref.cost < cost or not math.isfinite(cost) else (x, cost, evals)
+
+    resolution = math.nan
+    while resolve:
+        space.to_model(x)
+        finer, resolution = resolved_substeps(space.model, records, substeps=problem.sim["substeps"],
+                                              max_substeps=int(max_substeps), method=ode_method, backend=backend,
+                                              input_channels=tuple(input_channels))
+        if finer == problem.sim["substeps"]:
+            break
+        problem = RecordsProblem(space, records, input_channels, ode_method, finer, backend)
+        with torch.no_grad():
+            cost = float(problem.cost(x[None])[0])  # the same point at the finer step
+        x, cost, evals = go_on(problem, x, cost, evals)
+    if fisher and target is not None and cost <= target:
+        # the search stopped at the target, short of the least-squares minimum; the Fisher standard deviations
+        # describe the minimum's scatter, so go on to it (the early-stopped point scatters more than they say)
+        x, cost, evals = go_on(problem, x, cost, evals)
     space.to_model(x)
-    return _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method, start)
+    result = _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method, start)
+    result.substeps, result.resolution = problem.sim["substeps"], resolution
+    return result
 
 
 def _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method, start) -> IdentificationResult:

@@ -46,7 +46,9 @@ def build_datamodule(cfg: DictConfig) -> RecordDataModule:
     model = []
     if cfg.get("module") in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all")
-        check_model_data(nominal, parts, "model")
+        note = check_model_data(nominal, parts, "model")
+        if note:  # records without units: the model's are assumed
+            print(note, flush=True)
         model = [c for c in conditions_used(nominal) if c not in network]
     return RecordDataModule(records, held_out=split["held_out"], val=split["val"], seed=int(cfg.seed),
                             past=encoder_past(cfg), conditions=[*network, *model], **d)

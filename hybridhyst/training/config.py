@@ -99,11 +99,13 @@ def load_records(cfg, select=None, where: str = "split.select"):
     return records
 
 
-def check_model_data(model, split, what: str = "model") -> None:
+def check_model_data(model, split, what: str = "model") -> str:
     """Every record of ``split`` (``Split`` or a record set) fits the model, else a one-line ``ValueError``: it has
     the conditions the model's parameter functions need (``physics.models.conditions_used``), as numbers, and the
     input and response units (``Record.units`` "x", "y") the model declares (``NominalModel.data_units``; nothing
-    is converted). Units the model leaves symbolic, and records without units, are not checked."""
+    is converted). Units the model leaves symbolic are not checked. Records that declare no unit for a channel
+    are taken to be in the model's (written into ``Record.units``, so reports label them): the returned sentence
+    says so, for the app to show ('' where every record declared its units)."""
     from ..data.splits import Split, check_conditions
     from ..physics.models import conditions_used
 
@@ -121,3 +123,14 @@ def check_model_data(model, split, what: str = "model") -> None:
             raise ValueError(f"record {record.name!r} has units {got} but the {what} {model.name!r} works in {need}: "
                              "nothing is converted; give data.units in the model's units (data.units.x is the input "
                              "column's, data.units.y the response's) or convert the data")
+    assumed = {}
+    for record in (r for part in parts for r in (part or ())):
+        for k, unit in want.items():
+            if record.units.get(k) is None:
+                record.units[k] = assumed[k] = unit
+    if not assumed:
+        return ""
+    label = {"x": "input", "y": "response"}
+    taken = ", ".join(f"{label[k]} in {u}" for k, u in assumed.items())
+    return (f"note: the records declare no units for {' and '.join(label[k] for k in assumed)} (data.units): they are "
+            f"taken to be the {what} {model.name!r}'s ({taken}); nothing is checked or converted")
