@@ -203,11 +203,11 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     held = f", held-out {h:.4g}{unit}" if h is not None and math.isfinite(h) else ""
     steps = " + ".join(f"{n} {kind}" for kind, n in fit["steps"].items() if n)
     lines = [f"fit: {summary['model']}: RMSE training {rmse['train']:.4g}{unit}{held} "
-             f"({steps} steps, {fit['wall_s']:.3g} s)"]
+             f"({steps} steps{', converged' if fit.get('converged') else ''}, {fit['wall_s']:.3g} s)"]
     values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
-    for note in (convergence_note(fit), resolution_note(fit, "fit")):
+    for note in (convergence_note(fit) if not fit.get("converged") else "", resolution_note(fit, "fit")):
         lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines

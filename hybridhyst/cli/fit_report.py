@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..identify.gradient import TOLERANCE
 from ..report.figures import Loop, write_loops
 from .common import atomic_write, resolution_note
 
@@ -49,9 +50,10 @@ def _grid(evaluate: dict) -> str:
 
 
 def convergence_note(fit: dict) -> str:
-    """One sentence where the fit did not converge ('' where L-BFGS stopped by itself)."""
+    """One sentence on whether the fit converged (L-BFGS stopped by itself, or not)."""
     if fit.get("converged") is True:
-        return ""
+        return (f"Converged: L-BFGS stopped by itself (an iteration changed the loss by at most {TOLERANCE:g}, "
+                "relative).")
     change = fit.get("last_change")
     fell = f"; the loss still fell by {100 * change:.2g} % in the last step" if (change or 0) > 0 else ""
     if fit.get("converged") is None:
