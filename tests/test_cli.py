@@ -94,7 +94,7 @@ def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path, capsys):
 def test_fit_loop_figure_takes_named_records_and_refuses_unknown_ones(tmp_path):
     summary = fit.run(_compose("fit", tmp_path, [*TINY_FIT, "report.loop_records=char_1Hz_36lb_0.5in"]))
     assert summary["loop_records"] == ["char_1Hz_36lb_0.5in"]
-    assert "char_1Hz_36lb_0.5in.*" in (tmp_path / "report.md").read_text()
+    assert "the records of report.loop_records: char_1Hz_36lb_0.5in.*" in (tmp_path / "report.md").read_text()
     with pytest.raises(ValueError, match="report.loop_records"):
         fit.run(_compose("fit", tmp_path, [*TINY_FIT, "report.loop_records=[nope]"]))
 

@@ -92,3 +92,7 @@ def test_a_networks_scales_are_written_from_its_state_not_its_constructor():
     made.load_state_dict(saved.state_dict())
     assert made.options()["scales"] == saved.options()["scales"] == {"x": 2.0, "v": 8.0, "F": 3.0}
     assert made.options()["conditions"] == saved.options()["conditions"] == {"I": [0.5, 0.2]}
+    for inputs in (("x",), ("v",)):  # the scale of x or v that is not an input comes from the rate scale s_v / s_x
+        made = EFFECTS["neural"](inputs=inputs, scales={"x": 1.0, "v": 1.0, "F": 1.0})
+        made.load_state_dict(EFFECTS["neural"](inputs=inputs, scales={"x": 2.0, "v": 8.0, "F": 3.0}).state_dict())
+        assert made.options()["scales"] == {"x": 2.0, "v": 8.0, "F": 3.0}, inputs

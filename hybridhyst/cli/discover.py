@@ -102,7 +102,7 @@ def run(cfg: DictConfig) -> dict:
 
         first_fit = check_kwargs({**to_plain(d.identify), "seed": int(cfg.seed)}, identify, "discover.identify",
                                  reserved=("model", "records", "fisher", "progress", "backend", "ode_method",
-                                           "substeps"))
+                                           "substeps", "resolve", "max_substeps"))
         options = dict(candidates=to_plain(d.candidates), split=split, conditions=conditions,
                        label_conditions=to_plain(d.label_conditions), margin=float(d.margin), criterion=d.criterion,
                        max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,

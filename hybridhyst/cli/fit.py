@@ -38,7 +38,7 @@ from .common import (
     torch_settings,
     write_json,
 )
-from .fit_report import _fmt, convergence_note, write_loop_figure, write_report
+from .fit_report import _fmt, convergence_note, loop_caption, write_loop_figure, write_report
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
@@ -135,24 +135,35 @@ def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict
     return scores, frames, factors
 
 
-def _loop_records(chosen, held_out: list[str], per_record: dict, frames: dict) -> list[str]:
-    """The records drawn in ``loop.png``: those of ``report.loop_records`` (a name or a list), else the held-out
-    records, the worst first (at most ``MAX_LOOPS``: a large miss is never left out for a good fit)."""
+def _worst(rmse: float) -> float:
+    """An RMSE for ordering, a diverged record's (NaN) the worst."""
+    return math.inf if math.isnan(rmse) else rmse
+
+
+def _chosen_loops(chosen, names: list[str]) -> list[str] | None:
+    """``report.loop_records`` (a name or a list) as a list, checked against the records' ``names`` before any
+    fitting; None: the default (the held-out records)."""
     if chosen is None:
-        return sorted(held_out, key=lambda n: -per_record[n])[:MAX_LOOPS]
-    names = [chosen] if isinstance(chosen, str) else [str(n) for n in chosen]
-    unknown = [n for n in names if n not in frames]
-    if unknown or not names:
-        raise ValueError(f"report.loop_records {unknown or names!r}: give record names of {sorted(frames)} "
+        return None
+    picked = [chosen] if isinstance(chosen, str) else [str(n) for n in chosen]
+    unknown = [n for n in picked if n not in names]
+    if unknown or not picked:
+        raise ValueError(f"report.loop_records {unknown or picked!r}: give record names of {sorted(names)} "
                          "(null: the held-out records)")
-    return names
+    return picked
+
+
+def _worst_first(held_out: list[str], per_record: dict) -> list[str]:
+    """The held-out records drawn by default: the worst first, at most ``MAX_LOOPS`` (a large miss, or a diverged
+    record, is never left out for a good fit)."""
+    return sorted(held_out, key=lambda n: -_worst(per_record[n]))[:MAX_LOOPS]
 
 
 def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:
     fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
                 "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s,
                 "substeps": result.substeps, "resolution": result.resolution if cfg.fit.resolve else None,
-                "converged": result.converged, "last_change": result.last_change}
+                "converged": result.converged, "stop": result.stop, "last_change": result.last_change}
     return {
         "parameters": model.parameter_table(),
         "rmse": {"train": scores["train"]["pooled"], "held_out": scores["held_out"]["pooled"]},
@@ -174,6 +185,7 @@ def run(cfg: DictConfig) -> dict:
     run_dir = prepare_run_dir(cfg)
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         train, held_out = load_split(cfg)
+        chosen = _chosen_loops(to_plain(cfg.report.get("loop_records")), [*train.names, *held_out.names])
         model = instantiate(cfg.model, _convert_="all")
         note = check_model_data(model, [*train, *held_out])
         if note:  # records without units: the model's are assumed
@@ -181,7 +193,7 @@ def run(cfg: DictConfig) -> dict:
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
-    loop_names = _loop_records(cfg.report.get("loop_records"), held_out.names, summary["per_record"], frames)
+    loop_names = chosen or _worst_first(held_out.names, summary["per_record"])
     unit = f" {summary['units']['y']}".rstrip()
     write_loop_figure(run_dir / "loop.png", [frames[n] for n in loop_names], summary["units"],
                       [f"{n} (RMSE {summary['per_record'][n]:.3g}{unit})" for n in loop_names])
@@ -189,6 +201,7 @@ def run(cfg: DictConfig) -> dict:
     atomic_write(run_dir / "predictions.parquet", lambda p: table.to_parquet(p, index=False))
     summary["wall_s"] = time.perf_counter() - start
     summary["loop_records"] = loop_names
+    summary["loop_caption"] = loop_caption(loop_names, held_out.names, chosen is not None)
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
     print("\n".join(summary_lines(summary, run_dir)), flush=True)

@@ -14,7 +14,7 @@ from ..identify.gradient import TOLERANCE
 from ..report.figures import Loop, write_loops
 from .common import atomic_write, resolution_note
 
-__all__ = ["convergence_note", "write_loop_figure", "write_report"]
+__all__ = ["convergence_note", "loop_caption", "write_loop_figure", "write_report"]
 
 
 def write_loop_figure(path: Path, frames: list[pd.DataFrame], units: dict[str, str], titles: list[str]) -> Path:
@@ -26,13 +26,13 @@ def write_loop_figure(path: Path, frames: list[pd.DataFrame], units: dict[str, s
     return write_loops(path, loops, {"model": [f["y_model"].to_numpy(float) for f in frames]})
 
 
-def _loop_caption(summary: dict) -> str:
-    shown, held = summary["loop_records"], summary["split"]["held_out"]
-    if shown == sorted(held, key=lambda n: -summary["per_record"][n]):
-        return "every held-out record, the worst first"
-    if set(shown) <= set(held) and len(shown) < len(held):
-        return f"the {len(shown)} held-out records with the largest RMSE of {len(held)}, the worst first"
-    return ", ".join(shown)
+def loop_caption(shown: list[str], held_out: list[str], chosen: bool) -> str:
+    """What ``loop.png`` shows: the held-out records (the worst first, at most ``MAX_LOOPS``) or those chosen."""
+    if chosen:
+        return f"the records of report.loop_records: {', '.join(shown)}"
+    if len(shown) < len(held_out):
+        return f"the {len(shown)} held-out records with the largest RMSE of {len(held_out)}, the worst first"
+    return "the held-out record" if len(shown) == 1 else "every held-out record, the worst first"
 
 
 def _fmt(value) -> str:
@@ -50,7 +50,7 @@ def _grid(evaluate: dict) -> str:
 
 
 def convergence_note(fit: dict) -> str:
-    """One sentence on whether the fit converged (L-BFGS stopped by itself, or not)."""
+    """One sentence on whether the fit converged (L-BFGS stopped by itself, or why not)."""
     if fit.get("converged") is True:
         return (f"Converged: L-BFGS stopped by itself (an iteration changed the loss by at most {TOLERANCE:g}, "
                 "relative).")
@@ -58,6 +58,10 @@ def convergence_note(fit: dict) -> str:
     fell = f"; the loss still fell by {100 * change:.2g} % in the last step" if (change or 0) > 0 else ""
     if fit.get("converged") is None:
         return f"Convergence not checked: no L-BFGS iterations after Adam (fit.lbfgs_steps=0){fell}."
+    if fit.get("stop") == "non-finite":
+        return (f"Not converged: L-BFGS ended after {fit['steps'].get('lbfgs')} iterations on a step whose "
+                "simulation diverged (the best point is kept); try more sub-steps (fit.max_substeps) or a smaller "
+                "fit.lr.")
     return (f"Not converged: L-BFGS reached fit.lbfgs_steps ({fit['steps'].get('lbfgs')}) before the loss stopped "
             f"changing{fell}; raise fit.lbfgs_steps before trusting these values.")
 
@@ -123,7 +127,7 @@ def write_report(path: Path, summary: dict) -> Path:
         *_reference_lines(summary, unit),
         "",
         (f"![loops](loop.png)  \n*Response–excitation loops, measured (grey) and model (red): "
-         f"{_loop_caption(summary)}.*"),
+         f"{summary['loop_caption']}.*"),
         "",
     ]
     return atomic_write(path, "\n".join(lines))

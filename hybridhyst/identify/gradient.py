@@ -47,8 +47,11 @@ class FitResult:
     substeps : sub-steps per sample the fit ended with (chosen by step doubling with ``resolve``).
     resolution : relative RMS change of the fitted model's response under halved steps at ``substeps``
         (``nan`` without ``resolve``; above ``simulate.api.RESOLVED`` where ``max_substeps`` did not resolve it).
-    converged : whether L-BFGS stopped by itself (the loss changed by at most ``TOLERANCE``, relative, in one
-        iteration) rather than at ``lbfgs_steps``; None where no L-BFGS ran (Adam alone is not checked).
+    converged : whether L-BFGS stopped by itself: an iteration changed the loss by at most ``TOLERANCE``
+        (relative), so it cannot lower it further from there (this includes a line search that finds no lower
+        point, e.g. with a parameter held at a bound); None where no L-BFGS ran (Adam alone is not checked).
+    stop : why L-BFGS stopped: "converged", "steps" (``lbfgs_steps`` reached) or "non-finite" (a step's loss was
+        not finite; the best point is kept); None without L-BFGS.
     last_change : relative fall of the loss in the last optimiser step (L-BFGS iteration, else Adam step).
     """
 
@@ -62,6 +65,7 @@ class FitResult:
     substeps: int = 1
     resolution: float = math.nan
     converged: bool | None = None
+    stop: str | None = None
     last_change: float = math.nan
 
 
@@ -151,8 +155,9 @@ def _run_adam(obj: _Objective, steps: int, lr: float, progress: bool, history: l
     return done
 
 
-def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]) -> tuple[int, bool]:
-    """L-BFGS iterations (at most ``iters``): (iterations taken, whether it stopped by itself)."""
+def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]) -> tuple[int, str]:
+    """L-BFGS iterations (at most ``iters``): (iterations taken, why it stopped: "converged", "steps" or
+    "non-finite")."""
     params = [p for p in obj.model.parameters() if p.requires_grad]
     # max_iter=1 per call (one progress tick per iteration); max_eval leaves room for the line search
     opt = torch.optim.LBFGS(params, lr=1.0, max_iter=1, max_eval=11, history_size=20, line_search_fn="strong_wolfe")
@@ -173,21 +178,23 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
             value.backward()
         return line_search_loss(value, obj.best * scale[0])
 
-    done, stopped = 0, False
+    done, stop, first = 0, "steps", len(history)
     with progress_bar(total=iters, desc="lbfgs", enabled=progress) as bar:
         for _ in range(iters):
-            value = opt.step(closure)
+            value = opt.step(closure)  # the loss where this iteration started
             project_to_bounds(obj.model)
             done += 1
             if not torch.isfinite(value):
+                stop = "non-finite"
                 break
             history.append(float(value.detach()) / scale[0])
             bar.update(1)
             bar.set_postfix(loss=f"{history[-1]:.4g}")
-            if len(history) > 1 and abs(history[-2] - history[-1]) <= TOLERANCE * max(abs(history[-1]), 1e-12):
-                stopped = True
+            mine = history[first:]  # L-BFGS's own values (not Adam's last)
+            if len(mine) > 1 and abs(mine[-2] - mine[-1]) <= TOLERANCE * max(abs(mine[-1]), 1e-12):
+                stop = "converged"
                 break
-    return done, stopped
+    return done, stop
 
 
 def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record], *, steps: int = 100,
@@ -239,12 +246,12 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
     history: list[float] = []
     n_adam = n_lbfgs = evaluations = 0
-    converged = None
+    stop = None
     while True:
         obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": substeps})
         n_adam += _run_adam(obj, steps, lr, progress, history) if steps else 0
         if lbfgs_steps:
-            done, converged = _run_lbfgs(obj, lbfgs_steps, progress, history)
+            done, stop = _run_lbfgs(obj, lbfgs_steps, progress, history)
             n_lbfgs += done
         with torch.no_grad():
             obj()  # score the final parameters too, so the best state covers the last step
@@ -260,4 +267,4 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     return FitResult(model=model, loss=obj.best, history=history, steps={"adam": n_adam, "lbfgs": n_lbfgs},
                      n_samples=sum(len(r) for r in data), evaluations=evaluations,
                      wall_s=time.perf_counter() - start, substeps=substeps, resolution=resolution,
-                     converged=converged, last_change=last_change)
+                     converged=None if stop is None else stop == "converged", stop=stop, last_change=last_change)

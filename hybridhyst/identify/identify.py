@@ -300,18 +300,15 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
             "lr": lr}
     x, cost, history, evals = _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mode, opts,
                                       progress)
-    if not math.isfinite(cost):
-        names = culprits(problem, x)
-        raise ValueError(f"identification ended non-finite: every simulation diverged; parameters driving it: "
-                         f"{names}; narrow their bounds, add substeps or a finer time grid")
+
     def go_on(problem, x, cost, evals):  # more Levenberg–Marquardt from x on ``problem``
         ref = levenberg_marquardt(problem.residuals, space, x[None], iters=int(lm_steps), progress=progress)
         history["refine"] += ref.history
         evals += ref.evaluations * len(problem.records)
         return (ref.x, ref.cost, evals) if ref.cost < cost or not math.isfinite(cost) else (x, cost, evals)
 
-    resolution = math.nan
-    while resolve:
+    resolution, went_on = math.nan, False
+    while resolve and math.isfinite(cost):
         space.to_model(x)
         finer, resolution = resolved_substeps(space.model, records, substeps=problem.sim["substeps"],
                                               max_substeps=int(max_substeps), method=ode_method, backend=backend,
@@ -322,10 +319,15 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         with torch.no_grad():
             cost = float(problem.cost(x[None])[0])  # the same point at the finer step
         x, cost, evals = go_on(problem, x, cost, evals)
-    if fisher and target is not None and cost <= target:
+        went_on = True
+    if fisher and target is not None and cost <= target and mode != "none" and not went_on:
         # the search stopped at the target, short of the least-squares minimum; the Fisher standard deviations
         # describe the minimum's scatter, so go on to it (the early-stopped point scatters more than they say)
         x, cost, evals = go_on(problem, x, cost, evals)
+    if not math.isfinite(cost):
+        names = culprits(problem, x)
+        raise ValueError(f"identification ended non-finite: every simulation diverged; parameters driving it: "
+                         f"{names}; narrow their bounds, add substeps or a finer time grid")
     space.to_model(x)
     result = _result(problem, x, cost, noise_sd, fisher, jacobian, history, evals, method, start)
     result.substeps, result.resolution = problem.sim["substeps"], resolution

@@ -100,8 +100,11 @@ class NeuralEffect(Effect):
         scales = options["scales"]
         scales.update({k: float(v) for k, v in zip(self.inputs, self.input_scale.tolist())})
         scales["F"] = float(self.force_scale)
-        if "x" in scales:  # the rate scale is s_v / s_x
-            scales["v"] = float(self.rate_scale) * scales["x"]
+        rate = float(self.rate_scale)  # s_v / s_x: gives the one of x, v that is not an input from the other
+        if "x" in self.inputs and "v" not in self.inputs:
+            scales["v"] = rate * scales["x"]
+        elif "v" in self.inputs and "x" not in self.inputs:
+            scales["x"] = scales["v"] / rate
         options["conditions"] = {c: [float(m), float(sd)] for c, m, sd in
                                  zip(self.condition_names, self.condition_mean.tolist(), self.condition_sd.tolist())}
         return options
