@@ -135,11 +135,6 @@ def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict
     return scores, frames, factors
 
 
-def _worst(rmse: float) -> float:
-    """An RMSE for ordering, a diverged record's (NaN) the worst."""
-    return math.inf if math.isnan(rmse) else rmse
-
-
 def _chosen_loops(chosen, names: list[str]) -> list[str] | None:
     """``report.loop_records`` (a name or a list) as a list, checked against the records' ``names`` before any
     fitting; None: the default (the held-out records)."""
@@ -156,7 +151,7 @@ def _chosen_loops(chosen, names: list[str]) -> list[str] | None:
 def _worst_first(held_out: list[str], per_record: dict) -> list[str]:
     """The held-out records drawn by default: the worst first, at most ``MAX_LOOPS`` (a large miss, or a diverged
     record, is never left out for a good fit)."""
-    return sorted(held_out, key=lambda n: -_worst(per_record[n]))[:MAX_LOOPS]
+    return sorted(held_out, key=lambda n: -math.inf if math.isnan(per_record[n]) else -per_record[n])[:MAX_LOOPS]
 
 
 def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:

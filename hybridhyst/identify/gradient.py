@@ -240,31 +240,32 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     data = decimate_all(records, downsample, "gradient fitting")
     sim_kwargs = {"method": method, "input_channels": tuple(input_channels), "backend": backend}
 
-    def resolved(at: int) -> tuple[int, float]:
-        return resolved_substeps(model, data, substeps=at, max_substeps=max_substeps, **sim_kwargs)
+    def resolved(at: int, refit=None) -> tuple[int, float]:
+        return resolved_substeps(model, data, substeps=at, max_substeps=max_substeps, refit=refit, **sim_kwargs)
 
-    substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
     history: list[float] = []
-    n_adam = n_lbfgs = evaluations = 0
-    stop = None
-    while True:
-        obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": substeps})
-        n_adam += _run_adam(obj, steps, lr, progress, history) if steps else 0
+    done = {"adam": 0, "lbfgs": 0, "evaluations": 0, "stop": None, "best": math.inf}
+
+    def fit_at(s: int) -> None:  # Adam then L-BFGS at s sub-steps per sample, from the model's current values
+        obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": s})
+        done["adam"] += _run_adam(obj, steps, lr, progress, history) if steps else 0
         if lbfgs_steps:
-            done, stop = _run_lbfgs(obj, lbfgs_steps, progress, history)
-            n_lbfgs += done
+            n, done["stop"] = _run_lbfgs(obj, lbfgs_steps, progress, history)
+            done["lbfgs"] += n
         with torch.no_grad():
             obj()  # score the final parameters too, so the best state covers the last step
         obj.restore()
-        evaluations += obj.evaluations
-        if not resolve:
-            break
-        finer, resolution = resolved(substeps)
-        if finer == substeps:
-            break
-        substeps = finer  # the fitted model needs finer steps than it was fitted with: fit on from here
+        done["evaluations"] += obj.evaluations
+        done["best"] = obj.best
+
+    substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
+    fit_at(substeps)
+    if resolve:  # a fitted model that needs finer steps than it was fitted with is fitted on at the finer step
+        substeps, resolution = resolved(substeps, refit=fit_at)
     last_change = (history[-2] - history[-1]) / abs(history[-2]) if len(history) > 1 and history[-2] else math.nan
-    return FitResult(model=model, loss=obj.best, history=history, steps={"adam": n_adam, "lbfgs": n_lbfgs},
-                     n_samples=sum(len(r) for r in data), evaluations=evaluations,
-                     wall_s=time.perf_counter() - start, substeps=substeps, resolution=resolution,
-                     converged=None if stop is None else stop == "converged", stop=stop, last_change=last_change)
+    stop = done["stop"]
+    return FitResult(model=model, loss=done["best"], history=history,
+                     steps={"adam": done["adam"], "lbfgs": done["lbfgs"]}, n_samples=sum(len(r) for r in data),
+                     evaluations=done["evaluations"], wall_s=time.perf_counter() - start, substeps=substeps,
+                     resolution=resolution, converged=None if stop is None else stop == "converged", stop=stop,
+                     last_change=last_change)

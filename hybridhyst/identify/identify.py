@@ -301,29 +301,33 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
     x, cost, history, evals = _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mode, opts,
                                       progress)
 
-    def go_on(problem, x, cost, evals):  # more Levenberg–Marquardt from x on ``problem``
-        ref = levenberg_marquardt(problem.residuals, space, x[None], iters=int(lm_steps), progress=progress)
-        history["refine"] += ref.history
-        evals += ref.evaluations * len(problem.records)
-        return (ref.x, ref.cost, evals) if ref.cost < cost or not math.isfinite(cost) else (x, cost, evals)
+    state = {"problem": problem, "x": x, "cost": cost, "evals": evals, "went_on": False}
 
-    resolution, went_on = math.nan, False
-    while resolve and math.isfinite(cost):
-        space.to_model(x)
-        finer, resolution = resolved_substeps(space.model, records, substeps=problem.sim["substeps"],
-                                              max_substeps=int(max_substeps), method=ode_method, backend=backend,
-                                              input_channels=tuple(input_channels))
-        if finer == problem.sim["substeps"]:
-            break
-        problem = RecordsProblem(space, records, input_channels, ode_method, finer, backend)
+    def go_on(s: int) -> None:  # Levenberg–Marquardt on from the current point at s sub-steps per sample
+        if s != state["problem"].sim["substeps"]:
+            state["problem"] = RecordsProblem(space, records, input_channels, ode_method, s, backend)
+        p, x = state["problem"], state["x"]
         with torch.no_grad():
-            cost = float(problem.cost(x[None])[0])  # the same point at the finer step
-        x, cost, evals = go_on(problem, x, cost, evals)
-        went_on = True
-    if fisher and target is not None and cost <= target and mode != "none" and not went_on:
+            cost = float(p.cost(x[None])[0])  # the same point on this problem
+        ref = levenberg_marquardt(p.residuals, space, x[None], iters=int(lm_steps), progress=progress)
+        history["refine"] += ref.history
+        state["evals"] += ref.evaluations * len(p.records)
+        if ref.cost < cost or not math.isfinite(cost):
+            x, cost = ref.x, ref.cost
+        space.to_model(x)
+        state.update(x=x, cost=cost, went_on=True)
+
+    resolution = math.nan
+    if resolve and math.isfinite(cost):
+        space.to_model(x)
+        _, resolution = resolved_substeps(space.model, records, substeps=problem.sim["substeps"],
+                                          max_substeps=int(max_substeps), refit=go_on, method=ode_method,
+                                          backend=backend, input_channels=tuple(input_channels))
+    if fisher and target is not None and state["cost"] <= target and mode != "none" and not state["went_on"]:
         # the search stopped at the target, short of the least-squares minimum; the Fisher standard deviations
         # describe the minimum's scatter, so go on to it (the early-stopped point scatters more than they say)
-        x, cost, evals = go_on(problem, x, cost, evals)
+        go_on(state["problem"].sim["substeps"])
+    problem, x, cost, evals = state["problem"], state["x"], state["cost"], state["evals"]
     if not math.isfinite(cost):
         names = culprits(problem, x)
         raise ValueError(f"identification ended non-finite: every simulation diverged; parameters driving it: "

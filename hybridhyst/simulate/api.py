@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -225,27 +226,38 @@ def _outputs(model, states, U, P):
 
 
 def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 16, tol: float = RESOLVED,
-                      **kwargs) -> tuple[int, float]:
+                      refit: Callable[[int], None] | None = None, **kwargs) -> tuple[int, float]:
     """Step doubling: the fewest sub-steps per sample, from ``substeps`` up to ``max_substeps``, at which halving
     the step changes the simulated response of ``records`` by at most ``tol`` (RMS of the change over RMS of
     the response). A stiff state (a sharp Bouc–Wen loop, a presliding friction bristle) on a coarse sample grid
     otherwise diverges or is shaped by the integrator's error; the data set decides, not the user.
 
-    ``kwargs`` go to ``simulate`` (method, backend, input_channels). Returns ``(substeps, change)``: the change at
-    the returned sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
+    ``refit(s)``, where given, fits ``model`` on at ``s`` sub-steps (in place): it is called whenever a fitted
+    model needs finer steps than it was fitted with, and the check repeated, since the refitted loops may be
+    sharper still. ``kwargs`` go to ``simulate`` (method, backend, input_channels). Returns ``(substeps,
+    change)``: the change at the returned sub-steps (``inf`` where even ``max_substeps`` diverges; the caller
+    says so).
     """
     def response(s: int) -> torch.Tensor:
         with torch.no_grad():
             return torch.cat([y.reshape(-1) for y in simulate(model, records, substeps=s, **kwargs)])
 
-    s = max(int(substeps), 1)
-    coarse = response(s)
-    while True:
-        fine = response(2 * s)
-        scale = float(fine.pow(2).mean().sqrt())
-        change = float((coarse - fine).pow(2).mean().sqrt()) / max(scale, 1e-300)
-        if not math.isfinite(change) or not math.isfinite(scale):
-            change = math.inf
-        if change <= tol or 2 * s > max_substeps:
-            return s, change
-        s, coarse = 2 * s, fine
+    def doubled(s: int) -> tuple[int, float]:
+        coarse = response(s)
+        while True:
+            fine = response(2 * s)
+            scale = float(fine.pow(2).mean().sqrt())
+            change = float((coarse - fine).pow(2).mean().sqrt()) / max(scale, 1e-300)
+            if not math.isfinite(change) or not math.isfinite(scale):
+                change = math.inf
+            if change <= tol or 2 * s > max_substeps:
+                return s, change
+            s, coarse = 2 * s, fine
+
+    at = max(int(substeps), 1)
+    s, change = doubled(at)
+    while refit is not None and s != at:
+        refit(s)
+        at = s
+        s, change = doubled(at)
+    return s, change

@@ -113,24 +113,21 @@ def check_model_data(model, split, what: str = "model") -> str:
     names = conditions_used(model)
     if names:
         check_conditions(parts, names, f"{what} (a parameter as a function of a condition)")
-    want = model.data_units()
-    for record in (r for part in parts for r in (part or ())):
+    want, label = model.data_units(), {"x": "input", "y": "response"}
+    records = [r for part in parts for r in (part or ())]
+    for record in records:
         have = {k: record.units.get(k) for k in want}
         if any(v is not None and v != want[k] for k, v in have.items()):
-            label = {"x": "input", "y": "response"}
             got = ", ".join(f"{label[k]} {have[k]!r}" for k in want)
             need = ", ".join(f"{label[k]} {want[k]!r}" for k in want)
             raise ValueError(f"record {record.name!r} has units {got} but the {what} {model.name!r} works in {need}: "
                              "nothing is converted; give data.units in the model's units (data.units.x is the input "
                              "column's, data.units.y the response's) or convert the data")
-    assumed = {}
-    for record in (r for part in parts for r in (part or ())):
-        for k, unit in want.items():
-            if record.units.get(k) is None:
-                record.units[k] = assumed[k] = unit
+    assumed = {k: unit for k, unit in want.items() if any(r.units.get(k) is None for r in records)}
+    for record in records:  # filled only once every record has passed the check
+        record.units.update({k: unit for k, unit in assumed.items() if record.units.get(k) is None})
     if not assumed:
         return ""
-    label = {"x": "input", "y": "response"}
     taken = ", ".join(f"{label[k]} in {u}" for k, u in assumed.items())
     return (f"note: the records declare no units for {' and '.join(label[k] for k in assumed)} (data.units): they are "
             f"taken to be the {what} {model.name!r}'s ({taken}); nothing is checked or converted")
