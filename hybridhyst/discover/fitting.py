@@ -13,11 +13,11 @@ import torch
 from ..identify.identify import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
+from ..simulate import resolved_substeps
 
 __all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
-RESOLVED = 0.02  # relative change of the SSE under halved steps below which a fit counts as resolved
 
 
 @dataclass
@@ -154,21 +154,23 @@ def polish(model, train, sim, lm_steps: int, box_factor: float) -> Fit:
 
 
 def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> Fit | None:
-    """Step doubling: while halving the step changes the training SSE by more than ``RESOLVED`` (relative),
-    double the sub-steps per sample and refit from ``x`` (at most ``MAX_SUBSTEPS``). A stiff state (a
-    presliding Dahl or LuGre bristle, a sharp Bouc–Wen loop) fitted on a coarse grid is otherwise shaped by
-    the integrator's error, not by the data; the user never chooses sub-steps per data set."""
-    substeps = int(sim["substeps"])
-    problem = _problem(space, train, sim, substeps)
-    sse = float(_sse(problem, x[None])[0])
-    while substeps < MAX_SUBSTEPS:
-        finer = _problem(space, train, sim, 2 * substeps)
-        sse_fine = float(_sse(finer, x[None])[0])
-        if math.isfinite(sse) and abs(sse_fine - sse) <= RESOLVED * max(sse, 1e-300):
-            break
-        substeps, problem = 2 * substeps, finer
-        lm = converged_lm(problem, space, x[None], lm_steps)
-        x, sse = (lm.x, lm.cost * problem.n_samples) if math.isfinite(lm.cost) else (x, sse_fine)
+    """Step doubling (``simulate.resolved_substeps``, the check every app uses): while halving the step changes
+    the fitted response by more than ``simulate.api.RESOLVED``, double the sub-steps per sample (at most
+    ``MAX_SUBSTEPS``) and refit from the fitted point. A stiff state (a presliding Dahl or LuGre bristle, a
+    sharp Bouc–Wen loop) fitted on a coarse grid is otherwise shaped by the integrator's error, not by the
+    data; the user never chooses sub-steps per data set."""
+    space.to_model(x)
+
+    def refit(substeps: int) -> None:
+        nonlocal x
+        lm = converged_lm(_problem(space, train, sim, substeps), space, x[None], lm_steps)
+        if math.isfinite(lm.cost):
+            x = lm.x
+        space.to_model(x)
+
+    substeps, _ = resolved_substeps(space.model, train, substeps=int(sim["substeps"]), max_substeps=MAX_SUBSTEPS,
+                                    refit=refit, method=sim["method"], backend=sim["backend"])
+    sse = float(_sse(_problem(space, train, sim, substeps), x[None])[0])
     if not math.isfinite(sse):
         return None
     space.to_model(x)
