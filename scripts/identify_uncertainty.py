@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from hydra import compose, initialize_config_dir
-from scipy.integrate import solve_ivp
 
 from hybridhyst.cli import identify as identify_cli
 from hybridhyst.cli.common import CONF_DIR
+from hybridhyst.testbed.generators import mr_damper
 
 TRUTH = {"viscous.c": 2.0, "stiffness.k": 0.8, "hysteresis.kappa": 80.0, "hysteresis.beta": 0.3,
          "hysteresis.gamma": 0.3, "hysteresis.n": 2.0}
@@ -30,17 +30,9 @@ OUT = Path(__file__).resolve().parents[1] / "experiments" / "identify_uncertaint
 
 
 def clean_loop() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    c, k, kappa, beta, gamma, n = TRUTH.values()
-    w = 2 * np.pi * FREQUENCY_HZ
-
-    def rate(s, z):
-        v = AMPLITUDE_MM * w * np.cos(w * s)
-        return [v - beta * abs(v) * abs(z[0]) ** (n - 1) * z[0] - gamma * v * abs(z[0]) ** n]
-
     t = np.arange(0.0, 2 / FREQUENCY_HZ, 1 / RATE_HZ)
-    z = solve_ivp(rate, (0, t[-1]), [0.0], t_eval=t, rtol=1e-10, atol=1e-12, max_step=1 / (20 * RATE_HZ)).y[0]
-    x = AMPLITUDE_MM * np.sin(w * t)
-    return t, x, c * AMPLITUDE_MM * w * np.cos(w * t) + k * x + kappa * z
+    x = AMPLITUDE_MM * np.sin(2 * np.pi * FREQUENCY_HZ * t)
+    return t, x, mr_damper(t, AMPLITUDE_MM, FREQUENCY_HZ, *TRUTH.values())
 
 
 def main() -> None:

@@ -385,26 +385,17 @@ MR_TRUTH = {"viscous.c": 2.0, "stiffness.k": 0.8, "hysteresis.kappa": 80.0, "hys
 
 
 def _mr_loops(path, tests=((5.0, 1.0), (10.0, 0.5), (10.0, 2.0)), noise=2.0, seed=3):
-    """MR-damper loops of my own (scipy solve_ivp, 20 internal steps per sample, 400 Hz) written to a CSV."""
+    """MR-damper loops of my own (the test bed's scipy generator, ``testbed.generators.mr_damper``: 20 internal
+    steps per sample, 400 Hz) written to a CSV."""
     import pandas as pd
-    from scipy.integrate import solve_ivp
 
-    c, k, kappa, beta, gamma, n = MR_TRUTH.values()
-
-    def velocity(s, amp, f):
-        return amp * 2 * np.pi * f * np.cos(2 * np.pi * f * s)
-
-    def rate(s, z, amp, f):
-        v = velocity(s, amp, f)
-        return [v - beta * abs(v) * abs(z[0]) ** (n - 1) * z[0] - gamma * v * abs(z[0]) ** n]
+    from hybridhyst.testbed.generators import mr_damper
 
     rng, rows = np.random.default_rng(seed), []
     for amp, f in tests:
         t = np.arange(0.0, 2 / f, 1 / 400)
-        z = solve_ivp(rate, (0, t[-1]), [0.0], t_eval=t, args=(amp, f), rtol=1e-10, atol=1e-12,
-                      max_step=1 / 8000).y[0]
         x = amp * np.sin(2 * np.pi * f * t)
-        force = c * velocity(t, amp, f) + k * x + kappa * z + rng.normal(0.0, noise, len(t))
+        force = mr_damper(t, amp, f, *MR_TRUTH.values()) + rng.normal(0.0, noise, len(t))
         rows.append(pd.DataFrame({"record": f"a{amp}_f{f}", "t": t, "x_mm": x, "F_N": force}))
     pd.concat(rows).to_csv(path, index=False)
     return path

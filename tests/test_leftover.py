@@ -17,7 +17,7 @@ import pytest
 
 from hybridhyst.data import Record
 from hybridhyst.discover.leftover import FLAG_SHARE, neural_leftover, residual_network, structure_flagged
-from hybridhyst.discover.loop import _predict
+from hybridhyst.discover.validation import predict
 from hybridhyst.physics.effects import LinearStiffness, Viscous
 from hybridhyst.physics.models import DrivenOscillator
 
@@ -53,7 +53,7 @@ def test_a_network_in_the_dynamics_recovers_a_force_left_out_and_nothing_when_no
     train, val = [_record(1, plastic), _record(2, plastic)], [_record(3, plastic)]
     model = _model()
     out = neural_leftover(model, train, val, sim=SIM, iterations=40, progress=False)
-    static = residual_network(train, _predict(model, train, SIM), val, _predict(model, val, SIM))
+    static = residual_network(train, predict(model, train, SIM), val, predict(model, val, SIM))
     assert out["network"] == "dynamics" and out["on"] == "val" and out["evaluations"] >= 2
     if plastic:
         assert out["rmse_before"] > 0.1  # the elasto-plastic spring's effect, against 2 mm noise

@@ -9,8 +9,8 @@ import pytest
 from hybridhyst.data.records import Record
 from hybridhyst.discover.candidates import Scales
 from hybridhyst.discover.fitting import polish
-from hybridhyst.discover.loop import _rmse_of
 from hybridhyst.discover.selection import information_criterion, simplify
+from hybridhyst.discover.validation import rmse_on
 from hybridhyst.physics.effects import Coulomb, LinearStiffness, Stribeck, Viscous
 from hybridhyst.physics.models import Constitutive
 
@@ -43,8 +43,8 @@ def _simplify(records, model):
     fit = polish(model, train, SIM, 25, 10.0)
     n = sum(len(r) for r in train)
     ic = information_criterion(fit.sse, n, fit.k, "bic")
-    val = _rmse_of(fit.model, train, SIM)
-    return simplify(fit, train, train, SIM, Scales.of(train), n, OPTS, ic, val, _rmse_of)
+    val = rmse_on(fit.model, train, SIM)
+    return simplify(fit, train, SIM, Scales.of(train), n, OPTS, ic, val, lambda m, s: rmse_on(m, train, s))
 
 
 

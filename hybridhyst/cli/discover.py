@@ -73,6 +73,9 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""
     lines = [line]
     b, a = report["before"], report["after"]
+    v = report.get("validation") or {}
+    if v.get("kind") == "loco":
+        lines.append(f"  leave-one-condition-out RMSE {fmt(v['rmse_before'])} -> {fmt(v['rmse_after'])}{u}")
     for key, what in (("val_rmse", "validation"), ("test_rmse", "test"), ("train_rmse", "training")):
         if b.get(key) is not None or a.get(key) is not None:
             lines.append(f"  {what} RMSE {fmt(b.get(key))} -> {fmt(a.get(key))}{u}")
@@ -108,7 +111,7 @@ def run(cfg: DictConfig) -> dict:
                        max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,
                        fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
                        backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
-                       leftover=str(d.leftover), progress=bool(cfg.progress))
+                       leftover=str(d.leftover), validation=str(d.validation), progress=bool(cfg.progress))
         result = discover(records, model, **options)
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"

@@ -136,16 +136,21 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     return fit if fit is not None and math.isfinite(fit.sse) else None
 
 
-def polish(model, train, sim, lm_steps: int, box_factor: float) -> Fit:
+def polish(model, train, sim, lm_steps: int, box_factor: float, step_doubling: bool = True) -> Fit:
     """Refit the current model (every coordinate, LM from its values) so that its training error is
     converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
-    for finishing the previous fit. The model is updated in place."""
+    for finishing the previous fit. The model is updated in place. ``step_doubling=False`` keeps ``sim``'s sub-steps
+    (no step doubling: a refit of an already resolved model on part of its records)."""
     space = _space(model, train, factor=box_factor)
     problem = _problem(space, train, sim, sim["substeps"])
     x0 = space.initial().clamp(space.lower, space.upper)
     sse0 = float(_sse(problem, x0[None])[0])
     lm = converged_lm(problem, space, x0[None], lm_steps)
     x = lm.x if math.isfinite(lm.cost) and lm.cost * problem.n_samples <= sse0 else x0
+    if not step_doubling:
+        space.to_model(x)
+        sse = min(sse0, lm.cost * problem.n_samples) if math.isfinite(lm.cost) else sse0
+        return Fit(space.model, sse, space.dim, dict(zip(space.names, x.tolist())), int(sim["substeps"]))
     fit = resolve(space, train, sim, x, lm_steps)
     if fit is None:  # keep the model as it was
         space.to_model(x0)

@@ -19,16 +19,13 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-import numpy as np
 import torch
 
-from ..analysis.metrics import split_metrics
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
-from ..simulate import simulate
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
 from .fitting import at as _at
@@ -36,6 +33,7 @@ from .fitting import fit_candidate, polish, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
+from .validation import VALIDATION, Validation, predict, record_metrics, rmse_on
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
 
@@ -54,29 +52,6 @@ class DiscoveryResult:
 
 def _as_records(records) -> list[Record]:
     return list(records.records if isinstance(records, RecordSet) else records)
-
-
-def _predict(model, records, sim) -> list[np.ndarray]:
-    if not records:
-        return []
-    with torch.no_grad():
-        out = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    return [o[:, 0].numpy() for o in out]
-
-
-def _metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
-    """Pooled RMSE and RMSE per condition label (``analysis.split_metrics``); {} without records."""
-    out = split_metrics([{"condition": _label(r, labels), "y": np.asarray(r.y), "y_pred": p, "warmup": r.warmup}
-                         for r, p in zip(records, preds)])
-    if out:
-        out["per_condition"] = {k: v["rmse"] for k, v in out["per_condition"].items()}
-    return out
-
-
-def _label(r: Record, names: Sequence[str] | None = None) -> str:
-    from ..data.datamodule import condition_label
-
-    return condition_label(r, names)
 
 
 def _numeric_conditions(records) -> dict[str, list[float]]:
@@ -106,10 +81,6 @@ def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
     return {c: values[c] for c in conditions}
 
 
-def _rmse_of(model, records, sim) -> float:
-    return _metrics(records, _predict(model, records, sim)).get("rmse", math.inf) if records else math.inf
-
-
 def _parameters(model) -> dict:
     return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
             for e, params in model.parameter_table().items() for p, info in params.items()}
@@ -121,7 +92,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
-             progress: bool = True) -> DiscoveryResult:
+             validation: str = "records", progress: bool = True) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -135,6 +106,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         same physical thing on the held-out records (e.g. not a test frequency that is 0 for an earthquake).
     label_conditions : conditions shown in per-condition labels (default: all).
     margin : relative fall of the validation RMSE (training RMSE without validation records) required.
+    validation : what that RMSE is (``validation.py``): "records", the validation records' error (the training
+        records' without any); or "loco", leave one operating condition out: each group of training records
+        that share their conditions predicted by the model refitted on the others, pooled with the
+        validation records' error (a refit per training operating point for every model scored).
     criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
     top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
@@ -163,6 +138,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     start = time.perf_counter()
     if criterion not in ("bic", "aic"):
         raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")
+    if validation not in VALIDATION:
+        raise ValueError(f"unknown validation {validation!r}; choose one of {list(VALIDATION)}")
     if leftover not in LEFTOVER:
         raise ValueError(f"unknown leftover measure {leftover!r}; choose one of {list(LEFTOVER)}")
     records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
@@ -189,19 +166,19 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(identify_options or {})}
         identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
                  substeps=substeps, **opts)
-    scored = val or train
+    score = Validation(validation, train, val, lm_steps=lm_steps, box_factor=box_factor)
     splits = {"train": train, "val": val, "test": test}
 
     def evaluate(m, at):  # predictions of every split (simulated once) and their metrics
-        preds = {s: _predict(m, rs, at) for s, rs in splits.items()}
-        return preds, {s: _metrics(splits[s], preds[s], label_conditions) for s in splits}
+        preds = {s: predict(m, rs, at) for s, rs in splits.items()}
+        return preds, {s: record_metrics(splits[s], preds[s], label_conditions) for s in splits}
 
     opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion}
     fit = polish(model, train, sim, lm_steps, box_factor)
     initial, initial_sim = copy.deepcopy(fit.model), _at(sim, fit)  # "before": the nominal as fitted
     preds_before, before = evaluate(initial, initial_sim)
     ic = information_criterion(fit.sse, n_train, fit.k, criterion)
-    val_rmse = before["val" if val else "train"]["rmse"]
+    val_rmse = val_rmse0 = score(initial, initial_sim)
     diag_before = diagnose(train, preds_before["train"], noise_sd)
     steps, rejected, removed = [], [], []
     tried = set()
@@ -216,15 +193,15 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         if res is None:
             continue
         t_fit, chosen = res
-        t_val, t_ic = _rmse_of(t_fit.model, scored, _at(sim, t_fit)), information_criterion(
+        t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
             t_fit.sse, n_train, t_fit.k, criterion)
         accepted = t_val < (1 - margin) * val_rmse and t_ic < ic
         entry = {"effect": f"trends~{cond}", "kind": "trend", "description": f"parameters as functions of {cond}",
                  "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
                                                 f"{criterion}_before": ic, f"{criterion}_after": t_ic},
                  "parameters": _parameters(t_fit.model), "train_rmse": math.sqrt(t_fit.sse / n_train),
-                 "val_rmse": t_val if val else None, "accepted": accepted,
-                 "test_rmse": _rmse_of(t_fit.model, test, _at(sim, t_fit)) if test else None}
+                 "val_rmse": t_val if val or validation == "loco" else None, "accepted": accepted,
+                 "test_rmse": rmse_on(t_fit.model, test, _at(sim, t_fit)) if test else None}
         (steps if accepted else rejected).append(entry)
         if accepted:
             fit, ic, val_rmse = t_fit, t_ic, t_val
@@ -243,7 +220,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         ref = {s_: sse_at(fit, train, sim, s_) for s_ in {f.substeps for _, f in ranking if f is not None}}
         evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
                     for c, f in ranking}
-        finals = [(cand, f, _rmse_of(f.model, scored, _at(sim, f)))
+        finals = [(cand, f, score(f.model, _at(sim, f)))
                   for cand, f in ranking[: int(top)] if f is not None]
         if not finals:
             break
@@ -265,17 +242,16 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  "parameters": _parameters(c_fit.model),
                  "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
                  "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,
-                 "val_rmse": f_val if val else None,
-                 "test_rmse": _rmse_of(c_fit.model, test, _at(sim, c_fit)) if test else None, "accepted": accepted}
+                 "val_rmse": f_val if val or validation == "loco" else None,
+                 "test_rmse": rmse_on(c_fit.model, test, _at(sim, c_fit)) if test else None, "accepted": accepted}
         if not accepted:
             rejected.append(entry)
             break
         steps.append(entry)
         tried.add(cand.name)
         fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
-        ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), _rmse_of(fit.model, scored,
-                                                                                             _at(sim, fit))
-        fit, ic, val_rmse, gone = simplify(fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, _rmse_of,
+        ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), score(fit.model, _at(sim, fit))
+        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
                                            (lambda items, what: progress_bar(items, what, enabled=progress)))
         for g in gone:
             g["after_step"] = len(steps)
@@ -329,8 +305,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
                      "backend": backend, "method": method, "substeps": substeps,
                      "substeps_final": final_sim["substeps"],
-                     "leftover": leftover,
+                     "leftover": leftover, "validation": validation,
                      "refit": bool(refit and val)},
+        "validation": {"kind": validation, "on": score.scored, "rmse_before": val_rmse0, "rmse_after": val_rmse},
         "refit": refitted,
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
         "wall_s": time.perf_counter() - start,

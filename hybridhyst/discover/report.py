@@ -120,8 +120,12 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
     lines += ["", "## Accepted", ""]
-    scored = "validation" if r["records"]["val"] else "training"
-    if not r["records"]["val"]:
+    kind = (r.get("validation") or {}).get("kind", "records")
+    scored = "leave-one-condition-out" if kind == "loco" else "validation" if r["records"]["val"] else "training"
+    if kind == "loco":
+        lines += [f"The acceptance rule's RMSE is {r['validation']['on']}: each operating point's records predicted "
+                  "by the model refitted on the others (`validation: loco`).", ""]
+    elif not r["records"]["val"]:
         lines += ["No validation records: the acceptance rule's RMSE is the training records'.", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):

@@ -53,7 +53,7 @@ def _alternatives(fit: Fit, key: str, scales):
             yield tuple(case), reduced, combined(effect_candidates(reduced, scales, new))
 
 
-def simplify(fit: Fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, rmse_of, progress=None):
+def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None):
     """Remove or swap effects while that lowers the information criterion and raises the validation error by
     less than half the margin: each round takes the alternative with the lowest criterion, until none
     qualifies. Returns (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or
@@ -74,7 +74,7 @@ def simplify(fit: Fit, train, scored, sim, scales, n_train, opts, ic, val_rmse, 
                 f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
                 if not f_ic < ic or (best is not None and f_ic >= best[2]):
                     continue
-                f_val = rmse_of(f.model, scored, at(sim, f))
+                f_val = score(f.model, at(sim, f))
                 if f_val <= (1 + opts["margin"] / 2) * val_rmse:
                     best = (key, by, f_ic, f_val, f)
         if best is None:

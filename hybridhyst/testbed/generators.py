@@ -31,9 +31,8 @@ from scipy.special import erf
 
 __all__ = [
     "Sines", "ar1_noise", "bouc_wen_yield", "clearance_dahl", "cogging", "cumulative_travel", "dahl_exact", "fine_grid",
-    "heun",
-    "integrate", "linear_lag", "lugre", "maxwell_force", "multisine", "oscillator", "play", "play_rate", "sgn",
-    "sine", "stribeck_curve", "white_noise",
+    "heun", "integrate", "linear_lag", "lugre", "maxwell_force", "mr_damper", "multisine", "oscillator", "play",
+    "play_rate", "sgn", "sine", "stribeck_curve", "white_noise",
 ]
 
 
@@ -337,6 +336,23 @@ def bouc_wen_yield(t, signal: Sines, Fy: float, xy: float, n: float, b: float, m
         return np.array([(v / xy) * (1 - abs(z) ** n * (b * np.sign(v * z) + 1 - b))])
 
     return Fy * integrate(dzeta, t, [0.0], method=method)[:, 0]
+
+
+def mr_damper(t, amplitude: float, frequency: float, c: float, k: float, kappa: float, beta: float, gamma: float,
+              n: float) -> np.ndarray:
+    """Force of the Spencer-type MR-damper law under x = A sin(2π f t): F = c ẋ + k x + κ z with
+    ż = ẋ − β |ẋ| |z|^(n−1) z − γ ẋ |z|^n, z(0) = 0; the state by ``solve_ivp`` (RK45, rtol 1e-10, 20
+    internal steps per sample at most), ẋ in closed form."""
+    w = 2 * math.pi * frequency
+
+    def rate(s, z):
+        v = amplitude * w * math.cos(w * s)
+        return [v - beta * abs(v) * abs(z[0]) ** (n - 1) * z[0] - gamma * v * abs(z[0]) ** n]
+
+    t = np.asarray(t, float)
+    z = solve_ivp(rate, (0, t[-1]), [0.0], t_eval=t, rtol=1e-10, atol=1e-12,
+                  max_step=float(np.min(np.diff(t))) / 20).y[0]
+    return c * amplitude * w * np.cos(w * t) + k * amplitude * np.sin(w * t) + kappa * z
 
 
 def oscillator(t, drive: Sines, mass: float, damping: float, stiffness: float,
