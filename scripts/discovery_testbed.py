@@ -53,14 +53,19 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--fast", action="store_true", help=f"only the small cases {', '.join(FAST_CASES)}")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     ap.add_argument("--json", metavar="PATH", help="write the rows and the summary as JSON")
+    ap.add_argument("--validation", choices=("records", "loco"), default="records",
+                    help="discover's validation for every case (default: records, the library default)")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
+    if args.write_readme and args.validation != "records":
+        ap.error("--write-readme writes the table of the library's defaults; run --validation loco with --json")
     names = args.cases.split(",") if args.cases else list(FAST_CASES) if args.fast else [c.name for c in CASES]
     unknown = [n for n in names if n not in CASE_BY_NAME]
     if unknown:
         ap.error(f"unknown case(s) {unknown}; the bed has {sorted(CASE_BY_NAME)}")
     start = time.perf_counter()
-    rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs)
+    options = {"validation": args.validation} if args.validation != "records" else None
+    rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options)
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])
     command = f"PYTHONPATH=. python scripts/discovery_testbed.py {args_text}".strip()

@@ -105,9 +105,10 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
     return row
 
 
-def run_case(case: Case) -> dict:
-    """Generate the case's data, run discovery with the library defaults, score it. A failure gives a row
-    with ``error`` set (and every criterion False) instead of raising."""
+def run_case(case: Case, options: dict | None = None) -> dict:
+    """Generate the case's data, run discovery with the library defaults (``options``: discover() keywords
+    given to every case alike, e.g. ``{"validation": "loco"}``), score it. A failure gives a row with
+    ``error`` set (and every criterion False) instead of raising."""
     import torch
 
     from ..discover import discover
@@ -117,7 +118,7 @@ def run_case(case: Case) -> dict:
     try:
         records = case.records()
         nominal = case.nominal()
-        res = discover(records, nominal, split=case.split, noise_sd=case.noise, progress=False)
+        res = discover(records, nominal, split=case.split, noise_sd=case.noise, progress=False, **(options or {}))
         return score(case, res.report, time.perf_counter() - start)
     except Exception as exc:  # a crash is a result of the bed, not a reason to lose the other cases
         return {"name": case.name, "category": case.category, "description": case.description,
@@ -138,19 +139,20 @@ def _init_worker() -> None:
     torch.set_num_threads(1)
 
 
-def _run_named(name: str) -> dict:
-    return run_case(CASE_BY_NAME[name])
+def _run_named(name: str, options: dict | None = None) -> dict:
+    return run_case(CASE_BY_NAME[name], options)
 
 
-def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True) -> list[dict]:
+def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options: dict | None = None) -> list[dict]:
     """Run ``cases`` (from ``CASES``) on ``jobs`` worker processes (torch float64, one thread each); rows in
-    the order of ``cases``. ``jobs`` ≤ 1 runs in this process (any cases, registered or not)."""
+    the order of ``cases``. ``jobs`` ≤ 1 runs in this process (any cases, registered or not). ``options``:
+    discover() keywords, the same for every case."""
     cases = list(cases)
     if jobs <= 1:
         _init_worker()
         rows = []
         for case in cases:
-            rows.append(run_case(case))
+            rows.append(run_case(case, options))
             _report(rows[-1], progress)
         return rows
     unknown = [c.name for c in cases if CASE_BY_NAME.get(c.name) is not c]
@@ -158,7 +160,7 @@ def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True) -> list
         raise ValueError(f"run_bed with jobs > 1 takes cases from hybridhyst.testbed.cases.CASES; not there: {unknown}")
     out: dict[str, dict] = {}
     with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker) as pool:
-        futures = {pool.submit(_run_named, c.name): c.name for c in cases}
+        futures = {pool.submit(_run_named, c.name, options): c.name for c in cases}
         for fut in _as_completed(futures):
             row = fut.result()
             out[row["name"]] = row
