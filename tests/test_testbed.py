@@ -362,6 +362,21 @@ def test_fast_cases_end_to_end_pass(name):
     assert row["ok"] and row["ok_rmse"] and row["ok_effect"], row
 
 
+def test_the_bed_gives_every_case_the_same_discover_options():
+    """``run_case(case, options)`` passes the options to discover (here one it refuses: the row says so)."""
+    import torch
+
+    from hybridhyst.testbed.cases import CASE_BY_NAME
+    from hybridhyst.testbed.run import run_case
+
+    old = torch.get_default_dtype()
+    try:
+        row = run_case(CASE_BY_NAME["clean_friction"], {"validation": "lofo"})
+    finally:
+        torch.set_default_dtype(old)
+    assert "unknown validation 'lofo'" in row["error"] and not row["ok"]
+
+
 # -- (d) the whole bed against its targets ----------------------------------------------------------------------------
 
 
