@@ -176,10 +176,10 @@ def test_a_number_typed_outside_a_block_fails():
     assert not unquoted(text, "Simulating")
     typed = text.replace(body, body + "\nThe free-vibration frequency is 0.3014 Hz.\n")
     assert any("0.3014" in m for m in unquoted(typed, "Simulating"))
-    # a figure that a linked experiment does not hold (its README says 4.53e-6 m)
+    # a figure that a linked experiment does not hold (its README says 4.41e-6 m)
     body = section(text, "The main job")
-    assert "4.53e-6" in body
-    typo = text.replace(body, body.replace("4.53e-6", "4.12e-6", 1))
+    assert "4.41e-6" in body
+    typo = text.replace(body, body.replace("4.41e-6", "4.12e-6", 1))
     assert any("4.12e-6" in m for m in unquoted(typo, "The main job"))
 
 
