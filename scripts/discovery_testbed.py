@@ -45,6 +45,7 @@ def code_version() -> str:
 
 
 def main(argv=None) -> list[dict]:
+    from hybridhyst.discover.validation import VALIDATION
     from hybridhyst.testbed.cases import CASE_BY_NAME, CASES, FAST_CASES
     from hybridhyst.testbed.run import markdown, run_bed, summary
 
@@ -53,7 +54,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--fast", action="store_true", help=f"only the small cases {', '.join(FAST_CASES)}")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     ap.add_argument("--json", metavar="PATH", help="write the rows and the summary as JSON")
-    ap.add_argument("--validation", choices=("records", "loco"), default="records",
+    ap.add_argument("--validation", choices=VALIDATION, default="records",
                     help="discover's validation for every case (default: records, the library default)")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)

@@ -34,7 +34,7 @@ def _records(pressures=PRESSURES, seed=0) -> list[Record]:
         x = 0.5 * np.sin(2 * np.pi * t + 0.3 * i)
         v = np.pi * np.cos(2 * np.pi * t + 0.3 * i)
         y = 2.0 * x + _c(p) * v + NOISE * rng.standard_normal(len(t))
-        out.append(Record(f"p{p}", t, x, y, conditions={"pressure_mpa": p}))
+        out.append(Record(f"r{i}_p{p}", t, x, y, conditions={"pressure_mpa": p}))
     return out
 
 
@@ -89,6 +89,8 @@ def test_loco_needs_two_operating_points_and_an_unknown_kind_is_refused():
     one = _records((0.2, 0.2))
     with pytest.raises(ValueError, match="share one"):
         Validation("loco", one, [], lm_steps=5, box_factor=10.0)
+    with pytest.raises(ValueError, match="share one"):  # refused before the nominal's identification
+        discover(one, _model(0.3), validation="loco", identify_options={"generations": 10_000}, progress=False)
     with pytest.raises(ValueError, match="unknown validation 'lofo'"):
         discover(_records(), _model(0.3), validation="lofo", progress=False)
 

@@ -33,7 +33,7 @@ from .fitting import fit_candidate, polish, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
-from .validation import VALIDATION, Validation, predict, record_metrics, rmse_on
+from .validation import Validation, predict, record_metrics, rmse_on
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
 
@@ -138,8 +138,6 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     start = time.perf_counter()
     if criterion not in ("bic", "aic"):
         raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")
-    if validation not in VALIDATION:
-        raise ValueError(f"unknown validation {validation!r}; choose one of {list(VALIDATION)}")
     if leftover not in LEFTOVER:
         raise ValueError(f"unknown leftover measure {leftover!r}; choose one of {list(LEFTOVER)}")
     records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
@@ -161,12 +159,12 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     n_train = sum(len(r) for r in train)
     for r in train:
         r.require_samples(16, "discovery (identifying a candidate effect)")
+    score = Validation(validation, train, val, lm_steps=lm_steps, box_factor=box_factor)  # refuses a bad kind
     model = nominal
     if fit_nominal:
         opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(identify_options or {})}
         identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
                  substeps=substeps, **opts)
-    score = Validation(validation, train, val, lm_steps=lm_steps, box_factor=box_factor)
     splits = {"train": train, "val": val, "test": test}
 
     def evaluate(m, at):  # predictions of every split (simulated once) and their metrics
@@ -200,7 +198,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
                                                 f"{criterion}_before": ic, f"{criterion}_after": t_ic},
                  "parameters": _parameters(t_fit.model), "train_rmse": math.sqrt(t_fit.sse / n_train),
-                 "val_rmse": t_val if val or validation == "loco" else None, "accepted": accepted,
+                 "val_rmse": t_val if score.out_of_sample else None, "accepted": accepted,
                  "test_rmse": rmse_on(t_fit.model, test, _at(sim, t_fit)) if test else None}
         (steps if accepted else rejected).append(entry)
         if accepted:
@@ -242,7 +240,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  "parameters": _parameters(c_fit.model),
                  "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
                  "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,
-                 "val_rmse": f_val if val or validation == "loco" else None,
+                 "val_rmse": f_val if score.out_of_sample else None,
                  "test_rmse": rmse_on(c_fit.model, test, _at(sim, c_fit)) if test else None, "accepted": accepted}
         if not accepted:
             rejected.append(entry)

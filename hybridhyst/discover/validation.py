@@ -87,6 +87,12 @@ class Validation:
                              "validation 'records' (the validation records' error)")
 
     @property
+    def out_of_sample(self) -> bool:
+        """Whether the score is out of sample (validation records, or leave-one-condition-out), not the
+        training error."""
+        return bool(self.val) or self.kind == "loco"
+
+    @property
     def scored(self) -> str:
         """Which error the score is, in words (for the report)."""
         if self.kind == "loco":
