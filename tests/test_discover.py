@@ -120,6 +120,27 @@ def test_bouc_wen_candidate_is_the_identifiable_normalised_form(float64):
     assert held == {"alpha": 0.0, "k1": 0.0, "D": 1.0, "A": 1.0}
 
 
+def test_sign_smoothing_widths_are_searched_well_below_the_data_speeds():
+    """A sign smoothed over the data's own speeds is a linear or |v|-like term: asymmetric Coulomb with
+    v_s ≫ |v| is dF·|v|/v_s, a force of one sign either way (seen on the 30 lb BRFD tests, v_s = 2593 in/s).
+    Every smoothing width's box ends at a tenth of the velocity scale; the other shape parameters keep theirs."""
+    from hybridhyst.discover.candidates import SMOOTHING_MAX, Scales, effect_candidates
+    from hybridhyst.physics.effects import EFFECTS
+
+    records = make_records(None, noise_sd=NOISE)
+    scales = Scales.of(records.records)
+    names = ["asymmetric_coulomb", "coulomb", "stribeck", "travel_drift"]
+    assert {n for n, cls in EFFECTS.items() if any(s.smoothing for s in cls.specs.values())} == set(names)
+    model = base_model(None).with_effects({})  # no effect present: every one is a candidate
+    for cand in effect_candidates(model, scales, names):
+        key = cand.meta["key"]
+        assert cand.bounds[f"{key}.v_s"][1] == pytest.approx(SMOOTHING_MAX * scales.v)
+        assert all(s[f"{key}.v_s"] <= SMOOTHING_MAX * scales.v for s in cand.starts)
+        assert len({tuple(sorted(s.items())) for s in cand.starts}) == len(cand.starts)  # no start twice
+    (stribeck,) = effect_candidates(model, scales, ["stribeck"])
+    assert stribeck.bounds["stribeck.vs"][1] > scales.v  # the Stribeck speed is not a smoothing width
+
+
 def test_diagnostics_measure_structure_and_whiteness():
     rng = np.random.default_rng(0)
     f = rng.uniform(-1, 1, 4000)

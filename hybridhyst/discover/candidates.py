@@ -85,11 +85,19 @@ def _placed(model, key: str, effect: Effect):
     return model.with_effects({**effects, key: effect})
 
 
+# A smoothing width (``ParameterSpec.smoothing``) is searched up to this fraction of the data's scale of its
+# unit: a sign smoothed by tanh(v / v_s) then reaches its level (tanh 10 ≈ 1) at the data's typical speed.
+# Wider, the "sign" is a linear or |v|-like term over the data, which is not the effect the element names.
+SMOOTHING_MAX = 0.1
+
+
 def _interval(spec, scale, start: float) -> tuple[float, float]:
     lo, hi = spec.bounds
     if scale is None:
         span = 100.0 * max(abs(start), 1.0)
         return max(lo, start - span), min(hi, start + span)
+    if spec.smoothing:
+        return max(lo, scale * 1e-3), min(hi, scale * SMOOTHING_MAX)
     if spec.constraint == "positive":
         return max(lo, scale * 1e-3), min(hi, scale * 1e3)
     if spec.constraint == "nonnegative" or lo >= 0:
@@ -144,10 +152,11 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         # shape parameters also well below their scale (a sign smoothing width, a Stribeck speed): an exact sign
         # in the data needs a width far below the velocity scale, a basin the scale-sized starts do not reach
         sharp = {p: high[p] if p in amplitudes else 0.01 * low[p] for p in free}
-        starts = [start(low), start(high), start(mixed)] + ([start(sharp)] if start(sharp) != start(mixed) else [])
+        starts = [start(low), start(high), start(mixed), start(sharp)]
         neutral = {p: spec.neutral for p, spec in free.items() if spec.neutral is not None}
         if neutral:  # the fitted model itself: a candidate's refit can only improve on it
             starts.append(start({p: neutral.get(p, low[p]) for p in free}))
+        starts = [s for i, s in enumerate(starts) if s not in starts[:i]]  # a start clipped onto another
 
         def build(m, key=key, cls=cls, start=starts[0], held=held):
             values = {k.split(".", 1)[1]: v for k, v in start.items()}

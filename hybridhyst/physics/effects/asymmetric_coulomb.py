@@ -33,7 +33,7 @@ class AsymmetricCoulomb(Effect):
         "Fc": ParameterSpec(0.0, "F", (0.0, 1e6), "nonnegative", neutral=0.0, doc="mean sliding friction level"),
         "dF": ParameterSpec(0.0, "F", (-1e6, 1e6), "real", neutral=0.0,
                             doc="half the difference between the positive- and negative-velocity levels"),
-        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity"),
+        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity", smoothing=True),
     }
 
     def force(self, p, kin: Kinematics, state):

@@ -19,7 +19,7 @@ class Coulomb(Effect):
     source = "seeds 000, 001, 003"
     specs = {
         "Fc": ParameterSpec(0.0, "F", (0.0, 1e6), "nonnegative", neutral=0.0, doc="sliding friction level"),
-        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity"),
+        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity", smoothing=True),
     }
 
     def force(self, p, kin: Kinematics, state):

@@ -33,7 +33,7 @@ class Stribeck(Effect):
         "dFs": ParameterSpec(0.0, "F", (0.0, 1e6), "nonnegative", neutral=0.0,
                              doc="static minus sliding friction level"),
         "vs": ParameterSpec(1e-2, "x/t", (1e-9, 1e6), "positive", doc="Stribeck velocity"),
-        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity"),
+        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign smoothing velocity", smoothing=True),
     }
 
     def force(self, p, kin: Kinematics, state):

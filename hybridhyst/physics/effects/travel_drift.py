@@ -33,7 +33,7 @@ class TravelDrift(Effect):
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "dF": ParameterSpec(0.0, "F/x", (-1e9, 1e9), "real", neutral=0.0,
                             doc="change of the friction level per unit travel"),
-        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign-smoothing velocity"),
+        "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign-smoothing velocity", smoothing=True),
     }
 
     def rate(self, p, kin: Kinematics, state):

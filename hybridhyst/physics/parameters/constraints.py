@@ -69,6 +69,9 @@ class ParameterSpec:
     constraint : ``"positive"``, ``"nonnegative"``, ``"bounded"`` or ``"real"``.
     neutral : the value at which the effect contributes nothing (used when discovery adds it).
     doc : one line on what the parameter is.
+    smoothing : the parameter is a smoothing width (of a sign, a corner): the element is meant to be sharp
+        against the data, so discovery searches it only well below the data's scale of its unit (a sign
+        smoothed over the data's own speeds is a linear term, not the effect the element names).
     """
 
     default: float
@@ -77,6 +80,7 @@ class ParameterSpec:
     constraint: str = "real"
     neutral: float | None = None
     doc: str = ""
+    smoothing: bool = False
 
 
 def render_unit(template: str, units: dict[str, str] | None) -> str:
