@@ -63,16 +63,19 @@ def sse_at(fit: Fit, train, sim: dict, substeps: int) -> float:
 
 
 def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tensor, lm_steps: int,
-                 rounds: int = 4, rtol: float = 1e-3, free: torch.Tensor | None = None):
+                 rounds: int = 4, rtol: float = 1e-3, free: torch.Tensor | None = None, keep: int = 3):
     """Batched LM in rounds of ``lm_steps`` iterations, continued while the best cost still falls by more
     than ``rtol`` (relative) per round, at most ``rounds`` rounds. A fixed budget can stop a fit halfway
     down a long valley (a new hysteretic state pulling the damping and stiffness with it); the next
-    candidate would then get the credit for finishing it."""
+    candidate would then get the credit for finishing it. Every start gets the first round; only the
+    ``keep`` lowest then continue (the rows are most of the cost: each Jacobian is one simulation per
+    coordinate and row)."""
     lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False)
     for _ in range(rounds - 1):
         if not math.isfinite(lm.cost):
             break
-        more = levenberg_marquardt(problem.residuals, space, lm.X, iters=lm_steps, free=free, progress=False)
+        rows = lm.X[torch.argsort(lm.costs)[:keep]]
+        more = levenberg_marquardt(problem.residuals, space, rows, iters=lm_steps, free=free, progress=False)
         done = more.cost > (1 - rtol) * lm.cost
         lm = more  # each row continues from its own end, so no row gets worse
         if done:
