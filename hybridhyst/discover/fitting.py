@@ -70,7 +70,7 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
     candidate would then get the credit for finishing it. The rows are most of the cost (each Jacobian is
     one simulation per coordinate and row), so they are halved as they go: every start gets the first half
     round, the lower half of them (at least ``keep``) the second, only the ``keep`` lowest the later rounds."""
-    half = max(lm_steps // 2, 1)
+    half = max(lm_steps // 2, 1) if len(starts) > keep else lm_steps  # a few rows: one call, one damping path
     lm = levenberg_marquardt(problem.residuals, space, starts, iters=half, free=free, progress=False)
     if lm_steps > half and math.isfinite(lm.cost):
         rows = lm.X[torch.argsort(lm.costs)[:max(keep, -(-len(lm.X) // 2))]]
