@@ -150,16 +150,18 @@ def polish(model, train, sim, lm_steps: int, box_factor: float, step_doubling: b
     x0 = space.initial().clamp(space.lower, space.upper)
     sse0 = float(_sse(problem, x0[None])[0])
     lm = converged_lm(problem, space, x0[None], lm_steps)
-    x = lm.x if math.isfinite(lm.cost) and lm.cost * problem.n_samples <= sse0 else x0
+    improved = math.isfinite(lm.cost) and lm.cost * problem.n_samples <= sse0
+    x, sse = (lm.x, lm.cost * problem.n_samples) if improved else (x0, sse0)
     if not step_doubling:
-        space.to_model(x)
-        sse = min(sse0, lm.cost * problem.n_samples) if math.isfinite(lm.cost) else sse0
-        return Fit(space.model, sse, space.dim, dict(zip(space.names, x.tolist())), int(sim["substeps"]))
+        return _fit(space, x, sse, int(sim["substeps"]))
     fit = resolve(space, train, sim, x, lm_steps)
-    if fit is None:  # keep the model as it was
-        space.to_model(x0)
-        return Fit(model, sse0, space.dim, {}, sim["substeps"])
-    return fit
+    return fit if fit is not None else _fit(space, x0, sse0, int(sim["substeps"]))  # else the model as it was
+
+
+def _fit(space: SearchSpace, x: torch.Tensor, sse: float, substeps: int) -> Fit:
+    """The fit at coordinates ``x`` (written into the space's model)."""
+    space.to_model(x)
+    return Fit(space.model, sse, space.dim, dict(zip(space.names, x.tolist())), substeps)
 
 
 def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> Fit | None:
@@ -180,7 +182,4 @@ def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> F
     substeps, _ = resolved_substeps(space.model, train, substeps=int(sim["substeps"]), max_substeps=MAX_SUBSTEPS,
                                     refit=refit, method=sim["method"], backend=sim["backend"])
     sse = float(_sse(_problem(space, train, sim, substeps), x[None])[0])
-    if not math.isfinite(sse):
-        return None
-    space.to_model(x)
-    return Fit(space.model, sse, space.dim, dict(zip(space.names, x.tolist())), substeps)
+    return _fit(space, x, sse, substeps) if math.isfinite(sse) else None
