@@ -8,7 +8,7 @@ import torch
 from hybridhyst.physics.compositions import COMPOSITIONS
 from hybridhyst.physics.effects import EFFECTS
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
-from hybridhyst.simulate import simulate
+from hybridhyst.simulate import jacobian_covers, simulate, simulate_jacobian
 
 RTOL = 1e-8
 
@@ -64,26 +64,35 @@ def test_every_library_effect_has_a_fast_case():
     assert set(EFFECT_VALUES) == physical  # a new effect must be added here (networks: tests/test_neural.py)
 
 
+def _every_effect(structure: str):
+    """Every library effect but the delay at non-neutral values in one model (one compilation per structure,
+    shared by the adjoint and the Jacobian tests); the delay is tested alone below."""
+    order = ["backlash"] + [n for n in sorted(EFFECT_VALUES) if n not in ("backlash", "time_delay")]
+    effects = {name: EFFECTS[name](**EFFECT_VALUES[name]) for name in order}
+    if structure == "constitutive":
+        return Constitutive(effects).double()
+    return DrivenOscillator(effects, mass=1.0).double()
+
+
+def _every_effect_input():
+    t = torch.arange(300) * 5e-3
+    return torch.sin(2 * math.pi * 1.3 * t) + 0.3 * torch.sin(2 * math.pi * 3.1 * t + 1.0), t
+
+
 @pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
 def test_fast_path_equals_reference_for_every_effect(structure, float64):
     """All library effects at non-neutral values in one model per structure (one compilation each);
     every parameter's gradient is compared individually."""
-    order = ["backlash", "time_delay"] + [n for n in sorted(EFFECT_VALUES) if n not in ("backlash", "time_delay")]
-    effects = {name: EFFECTS[name](**EFFECT_VALUES[name]) for name in order}
-    if structure == "constitutive":
-        model = Constitutive(effects).double()
-    else:
-        model = DrivenOscillator(effects, mass=1.0).double()
-    t = torch.arange(300) * 5e-3
-    u = torch.sin(2 * math.pi * 1.3 * t) + 0.3 * torch.sin(2 * math.pi * 3.1 * t + 1.0)
-    _assert_agree(model, u[None], t, substeps=2)
+    u, t = _every_effect_input()
+    _assert_agree(_every_effect(structure), u[None], t, substeps=2)
 
 
-# the newest effects alone (with a spring), at values that exercise every branch: the clearance's gap opens and
-# closes on each reversal and its bristle saturates both ways; the Maxwell element runs near its corner 1/τ
+# the newest effects and the delay alone (with a spring), at values that exercise every branch: the clearance's gap
+# opens and closes on each reversal and its bristle saturates both ways; the Maxwell element runs near its corner 1/τ
 ALONE = {
     "clearance": {"sigma0": 20.0, "Fc": 0.5, "a": -0.3, "r": 0.1},
     "maxwell": {"k_m": 2.0, "tau": 0.1},
+    "time_delay": {"tau": 0.013},
 }
 
 
@@ -152,3 +161,36 @@ def test_fast_path_returns_the_reference_states(name, float64):
     assert s_fast.shape == s_ref.shape and s_fast.requires_grad == s_ref.requires_grad  # both differentiable
     assert ((s_fast - s_ref).abs().max() / s_ref.abs().max()).item() < RTOL
     assert ((y_fast - y_ref).abs().max() / y_ref.abs().max()).item() < RTOL
+
+
+@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
+def test_jacobian_equals_the_adjoint_for_every_effect(structure, float64):
+    """``simulate_jacobian`` (forward sensitivities w.r.t. every parameter in one pass) against the exact
+    adjoint of the reference loop: per row and parameter, w · dy equals the gradient of w · y, with the play's
+    projection (backlash, clearance) and sub-steps in the loop."""
+    model = _every_effect(structure)
+    u, t = _every_effect_input()
+    u = torch.stack([u, 0.8 * u])
+    with torch.no_grad():
+        P = model.evaluate(None, 2)
+    values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}
+    y, dy, keys = simulate_jacobian(model, u, t, values=values, substeps=2)
+    ref = simulate(model, u, t=t, values=values, substeps=2)
+    assert ((y - ref.detach()).abs().max() / ref.abs().max()).item() < RTOL
+    assert sorted(keys) == sorted((k, n) for k, d in P.items() for n in d)
+    w = torch.randn(ref.shape, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
+    grads = torch.autograd.grad((ref * w).sum(), [values[k][n] for k, n in keys], allow_unused=True)
+    got = (w[..., None] * dy).sum(dim=(1, 2))  # (rows, parameters)
+    for j, g in enumerate(grads):
+        expected = torch.zeros(2, dtype=torch.float64) if g is None else g
+        assert torch.allclose(got[:, j], expected, rtol=10 * RTOL, atol=10 * RTOL * float(got.abs().max())), keys[j]
+
+
+def test_jacobian_refuses_what_it_does_not_cover():
+    model = Constitutive({"k": EFFECTS["linear_stiffness"](k=1.0), "d": EFFECTS["time_delay"](tau=0.01)}).double()
+    t = torch.arange(20) * 1e-3
+    with torch.no_grad():
+        P = model.evaluate(None, 1)
+    assert not jacobian_covers(model)
+    with pytest.raises(ValueError, match="input delay"):
+        simulate_jacobian(model, torch.sin(t)[None], t, values=P)

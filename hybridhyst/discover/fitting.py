@@ -71,12 +71,14 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
     ``keep`` lowest then continue (the rows are most of the cost: each Jacobian is one simulation per
     coordinate and row). Halving the rows within the first round too was tried and lost the LuGre basin
     of the independent test bed's ``lugre`` case (held-out 1.20 × noise, Fc 1.84 for 0.4)."""
-    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False)
+    lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False,
+                            jacobian_rows=problem.jacobian_rows)
     for _ in range(rounds - 1):
         if not math.isfinite(lm.cost):
             break
         rows = lm.X[torch.argsort(lm.costs)[:keep]]
-        more = levenberg_marquardt(problem.residuals, space, rows, iters=lm_steps, free=free, progress=False)
+        more = levenberg_marquardt(problem.residuals, space, rows, iters=lm_steps, free=free, progress=False,
+                                  jacobian_rows=problem.jacobian_rows)
         done = more.cost > (1 - rtol) * lm.cost
         lm = more  # each row continues from its own end, so no row gets worse
         if done:
@@ -131,7 +133,7 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     old = torch.tensor([n not in candidate.free for n in space.names])
     if bool(old.any()):  # each start both as it is and re-balanced (a re-balance can also lead astray)
         balanced = levenberg_marquardt(problem.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
-                                       progress=False).X
+                                       progress=False, jacobian_rows=problem.jacobian_rows).X
         starts = torch.cat([starts, balanced])
     lm = converged_lm(problem, space, starts, lm_steps)
     if not math.isfinite(lm.cost):

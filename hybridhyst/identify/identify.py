@@ -14,12 +14,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import torch
+import torch.autograd.forward_ad as fwAD
 from torch import nn
 
 from ..data.batch import record_batches
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
-from ..simulate import resolved_substeps, simulate
+from ..simulate import jacobian_covers, resolved_substeps, simulate, simulate_jacobian
 from ..simulate.inputs import with_rates
 from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .refine import levenberg_marquardt
@@ -116,6 +117,46 @@ class RecordsProblem:
         """Model minus measured response, all samples flattened, ``(N, M)``."""
         return self.predict(X) - self.y_flat.to(X.dtype)[None]
 
+    @property
+    def jacobian_rows(self):
+        """``(X (N, D), free (D,) booleans) -> (residuals (N, M), Jacobian (N, M, F))`` w.r.t. the F free
+        coordinates, exact: the compiled loop's forward sensitivities w.r.t. the parameter values
+        (``simulate_jacobian``, one pass where finite differences take one simulation per coordinate) times
+        the parameter functions' derivatives w.r.t. the coordinates (forward-mode AD). None where the
+        sensitivities do not cover the model (the reference backend, an input delay, networks): then
+        Levenberg–Marquardt takes finite differences."""
+        if self.sim["backend"] != "fast" or not jacobian_covers(self.space.model):
+            return None
+        return self._jacobian
+
+    def _value_jacobian(self, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
+        """``{effect: {parameter: (N·R, F)}}``: each row's parameter values differentiated w.r.t. the free
+        coordinates ``idx``, in one forward-mode pass (coordinate j's direction in its own block of rows)."""
+        N, F = X.shape[0], len(idx)
+        E = X.new_zeros(N, F, X.shape[1])
+        E[:, torch.arange(F), idx] = 1.0
+        with fwAD.dual_level():
+            values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+            tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
+        return {k: {n: X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+                    for n, v in d.items()} for k, d in tangents.items()}
+
+    def _jacobian(self, X: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        idx = torch.nonzero(torch.as_tensor(free, dtype=torch.bool)).reshape(-1).tolist()
+        res, jac = [], []
+        for _, t, U, Y, cond in self.groups:
+            N, R = X.shape[0], U.shape[0]
+            Xd = X.detach().to(U.dtype)
+            dvalues = self._value_jacobian(Xd, idx, cond, R)
+            rows = {k: v.repeat(N) for k, v in cond.items()} or None
+            y, dy, keys = simulate_jacobian(self.space.model, U.repeat(N, 1, 1), t.repeat(N, 1),
+                                            values=self.space.values(Xd, cond, R), conditions=rows,
+                                            method=self.sim["method"], substeps=self.sim["substeps"])
+            dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
+            res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
+            jac.append((dy[..., 0, :] @ dvdx).reshape(N, -1, len(idx)))
+        return torch.cat(res, dim=1).to(torch.float64), torch.cat(jac, dim=1).to(torch.float64)
+
     def cost(self, X: torch.Tensor) -> torch.Tensor:
         """Pooled MSE over every sample of every record, ``(N,)`` (differentiable)."""
         sse = 0.0
@@ -177,6 +218,7 @@ def _local(problem, mode, found, opts, target, progress):
     R = len(problem.records)
     if mode == "lm":
         ref = levenberg_marquardt(problem.residuals, problem.space, starts, iters=opts["lm_steps"], target=target,
+                                  jacobian_rows=problem.jacobian_rows,
                                   progress=progress)
         return ref, ref.evaluations * R
     ref = refine_rows(problem.cost, problem.space, starts, adam_steps=opts["adam_steps"],
@@ -215,9 +257,15 @@ def _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mod
 def _fisher(problem, x, mse, noise_sd, jacobian) -> FisherReport:
     D = problem.space.dim
     sigma = noise_sd if noise_sd else math.sqrt(mse * problem.n_samples / max(problem.n_samples - D, 1))
+    exact = problem.jacobian_rows
     if jacobian == "auto":
-        jacobian = "autograd" if problem.n_samples * len(problem.records) <= 512 else "fd"
-    J = output_jacobian(problem.predict, x, method=jacobian)
+        jacobian = "exact" if exact else "autograd" if problem.n_samples * len(problem.records) <= 512 else "fd"
+    if jacobian == "exact":
+        if exact is None:
+            raise ValueError("jacobian='exact' needs the fast backend and a model without an input delay or networks")
+        J = exact(x[None], torch.ones(D, dtype=torch.bool))[1][0]
+    else:
+        J = output_jacobian(problem.predict, x, method=jacobian)
     return fisher_analysis(J, x, problem.space.names, max(sigma, 1e-300), log=problem.space.log)
 
 
@@ -250,8 +298,10 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
         stopped at the target is refined on (``lm_steps`` more Levenberg–Marquardt iterations) to the
         least-squares minimum, whose scatter the standard deviations describe.
     target : stop the search at this cost (MSE); seed : random seed (same seed, same result).
-    fisher : run the identifiability analysis; jacobian : ``"autograd"`` (exact, M simulated rows for M
-        samples), ``"fd"`` (central differences, 2 D rows) or ``"auto"`` (autograd up to 512 samples × records).
+    fisher : run the identifiability analysis; jacobian : ``"exact"`` (forward sensitivities, one pass:
+        ``RecordsProblem.jacobian_rows``), ``"autograd"`` (exact, M simulated rows for M samples), ``"fd"``
+        (central differences, 2 D rows) or ``"auto"`` (exact where it covers the model, else autograd up to
+        512 samples × records, else fd).
     input_channels, ode_method, substeps, backend : simulation settings (``simulate``).
     search_decimate : run the global search on every ``search_decimate``-th sample of each record (the
         refinement and every reported cost use all samples). 2 halves the search's cost; the coarser grid
@@ -309,7 +359,8 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         p, x = state["problem"], state["x"]
         with torch.no_grad():
             cost = float(p.cost(x[None])[0])  # the same point on this problem
-        ref = levenberg_marquardt(p.residuals, space, x[None], iters=int(lm_steps), progress=progress)
+        ref = levenberg_marquardt(p.residuals, space, x[None], iters=int(lm_steps), progress=progress,
+                                  jacobian_rows=p.jacobian_rows)
         history["refine"] += ref.history
         state["evals"] += ref.evaluations * len(p.records)
         if ref.cost < cost or not math.isfinite(cost):

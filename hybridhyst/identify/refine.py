@@ -157,6 +157,16 @@ def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h
     return (R - r0[:, None]).transpose(1, 2) / h
 
 
+def _lm_exact(jacobian_rows, space: Box, W: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Residuals ``(K, M)`` and Jacobians ``(K, M, F)`` w.r.t. the ``free`` logits from ``jacobian_rows``
+    (Jacobians w.r.t. the coordinates), chained through the box's map from logits (one coordinate each)."""
+    Wg = W.detach().clone().requires_grad_(True)
+    X = space.from_unit(torch.sigmoid(Wg))
+    (dX,) = torch.autograd.grad(X.sum(), Wg)
+    r, J = jacobian_rows(X.detach(), free)
+    return r, J * dX[:, free][:, None, :]
+
+
 def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
     """Damped Gauss–Newton steps ``(K, D)``; a row whose residuals or Jacobian are not finite (a diverged
     simulation) or whose system is singular gets a zero step instead of stopping the batch."""
@@ -176,12 +186,15 @@ def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tenso
 
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
                         iters: int = 30, h: float = 1e-6, target: float | None = None,
-                        free: torch.Tensor | None = None, progress: bool = True) -> RefineResult:
+                        free: torch.Tensor | None = None, progress: bool = True,
+                        jacobian_rows: Callable | None = None) -> RefineResult:
     """Batched Levenberg–Marquardt on the box logits: each row its own damping, one call per iteration.
 
-    ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Jacobians are forward
-    differences (K rows per trial step, D more per accepted row), so the step is robust in the ill-conditioned
-    valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order methods crawl.
+    ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Gauss–Newton steps are
+    robust in the ill-conditioned valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order
+    methods crawl. Jacobians come from ``jacobian_rows(X, free) -> (residuals, (K, M, F))`` where given
+    (``RecordsProblem.jacobian_rows``: exact forward sensitivities), else forward differences (F more
+    rows per accepted row). ``evaluations`` counts simulated rows either way (a Jacobian pass as one).
     ``free`` : ``(D,)`` booleans, the coordinates that may move (default all); the others keep each row's
     start value (the discovery loop re-balances a fitted model against a new effect's start this way).
     """
@@ -193,10 +206,13 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
         raise ValueError("levenberg_marquardt: no free coordinate (free is all False)")
     F = int(free.sum())
     lam = torch.full((K,), 1e-3, dtype=torch.float64)
-    r = _lm_residuals(residual_rows, space, W)
-    J = _lm_jacobian(residual_rows, space, W, r, h, free)
+    if jacobian_rows is None:
+        r = _lm_residuals(residual_rows, space, W)
+        J = _lm_jacobian(residual_rows, space, W, r, h, free)
+    else:
+        r, J = _lm_exact(jacobian_rows, space, W, free)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
-    history, evals = [float(cost.min())], K * (F + 1)
+    history, evals = [float(cost.min())], K * (F + 1 if jacobian_rows is None else 1)
     with progress_bar(total=iters, desc="levenberg-marquardt", enabled=progress) as bar:
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
@@ -210,8 +226,12 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             if bool(ok.any()):  # Jacobians only where the step was accepted
                 W[ok] = W[ok] + step[ok]
                 r[ok], cost[ok] = r_new[ok], new[ok]
-                J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h, free)
-                evals += int(ok.sum()) * F
+                if jacobian_rows is None:
+                    J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h, free)
+                    evals += int(ok.sum()) * F
+                else:
+                    J[ok] = _lm_exact(jacobian_rows, space, W[ok], free)[1]
+                    evals += int(ok.sum())
             lam = torch.where(ok, lam / 3, lam * 4).clamp(1e-12, 1e12)
             history.append(float(cost.min()))
             bar.update(1)

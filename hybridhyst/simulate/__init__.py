@@ -1,7 +1,9 @@
 """The only place where time is integrated (see DESIGN.md "Packages and their one job")."""
 
+from .api import jacobian_covers as jacobian_covers
 from .api import resolved_substeps as resolved_substeps
 from .api import simulate as simulate
+from .api import simulate_jacobian as simulate_jacobian
 from .fixed import ORDER as ORDER
 
-__all__ = ["ORDER", "resolved_substeps", "simulate"]
+__all__ = ["ORDER", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian"]

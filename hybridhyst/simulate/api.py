@@ -12,7 +12,7 @@ from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
 from .inputs import delayed, with_rates
 
-__all__ = ["resolved_substeps", "simulate"]
+__all__ = ["jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian"]
 
 RESOLVED = 1e-3  # relative RMS change of the response under halved steps below which it counts as resolved
 
@@ -168,6 +168,60 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
     y = _outputs(model, states, U, P)
     return (y, states) if return_states else y
+
+
+def jacobian_covers(model) -> bool:
+    """Whether ``simulate_jacobian`` covers ``model``: no effect reads the input with a delay and none is a
+    network."""
+    from ..physics.effects.base import Effect
+    from ..physics.effects.neural import NeuralEffect
+
+    return not any(isinstance(e, NeuralEffect) or type(e).input_delay is not Effect.input_delay
+                   for e in model.effects.values())
+
+
+def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None = None, conditions=None,
+                      method: str | None = None, substeps: int = 1):
+    """Responses and their derivatives w.r.t. every parameter value in one compiled pass (forward
+    sensitivities).
+
+    The Jacobian of ``simulate(model, inputs, t, values=values, backend="fast")`` w.r.t. each row's parameter
+    values: what a Gauss–Newton or Levenberg–Marquardt fit needs, at the cost of a few simulations where
+    finite differences take one per parameter. Exact for the discrete map (the same numbers as the adjoint).
+    Models with an input delay or networks are not covered (``jacobian_covers``; a ValueError says so).
+
+    Returns ``(y (batch, time, output_dim), dy (batch, time, output_dim, n), keys)``: ``keys`` lists the n
+    parameters as ``(effect, name)`` (the structure's under ``"structure"``) in the order of ``dy``'s last axis.
+    """
+    import torch.autograd.forward_ad as fwAD
+
+    from .fast.function import compiled, tangent_fast
+
+    dtype = _model_dtype(model)
+    u, t = _prepare(inputs, t, dt, dtype)
+    B = u.shape[0]
+    cond = _as_conditions(conditions, B, dtype, u.device)
+    P = _check_values(model, values, B, cond)
+    if not jacobian_covers(model):
+        raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it) or "
+                         "networks")
+    keys = list(compiled(model)[0].param_keys)
+    s0 = model.initial_state(P, B)
+    n = len(keys)
+    ds0 = s0.new_zeros(B, s0.shape[1], n)
+    if n and s0.shape[1]:  # the initial state's derivatives: forward-mode AD, each parameter in its own B rows
+        with fwAD.dual_level():
+            rows = {k: {name: v.expand(B).repeat(n) for name, v in d.items()} for k, d in P.items()
+                    if isinstance(d, dict)}
+            for j, (k, name) in enumerate(keys):
+                e = torch.zeros(n, B, dtype=dtype, device=u.device)
+                e[j] = 1.0
+                rows[k][name] = fwAD.make_dual(rows[k][name], e.reshape(-1))
+            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, n * B)).tangent
+        if tangent is not None:
+            ds0 = tangent.reshape(n, B, -1).permute(1, 2, 0).contiguous()
+    y, dy, _ = tangent_fast(model, with_rates(u, t), t, P, s0, ds0, method=method or "rk4", substeps=substeps)
+    return y, dy, keys
 
 
 def _prepare(inputs, t, dt, dtype):

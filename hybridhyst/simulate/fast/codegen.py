@@ -2,9 +2,12 @@
 
 For a model with S states, P parameters and O outputs, the generated module holds:
 ``rhs(s, u, du, ddu, th, f)`` and ``rhs_jac(..., f, fs, fth, fin)`` (values and Jacobians w.r.t.
-state, parameters and inputs), the same pair for the outputs, and the two loops ``forward`` and
-``backward`` (template below). ``backward`` is the exact adjoint of the discrete explicit Runge–Kutta
-map on the sample grid with sub-steps — the same numbers as autograd through the reference loop.
+state, parameters and inputs), the same pair for the outputs, and the loops ``forward``, ``backward`` and
+``tangent`` (template below). ``backward`` is the exact adjoint of the discrete explicit Runge–Kutta
+map on the sample grid with sub-steps — the same numbers as autograd through the reference loop;
+``tangent`` the same map's forward sensitivities w.r.t. every parameter in one pass (whole Jacobians for
+Levenberg–Marquardt). numba compiles each loop on its first call, so a model never fitted by least
+squares never compiles ``tangent``.
 
 A network inside the equations is a small MLP kernel (``_mlp_forward``) over its weights, which follow the
 P parameters in ``th``; the Jacobian kernels hold every network's output fixed, and ``rhs_net_vjp`` /
@@ -365,6 +368,15 @@ def backward(U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
         backward_row(b, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0)
 
 
+@njit(cache=True, parallel=PARALLEL, error_model='numpy')
+def tangent(U, h, th, s0, ds0, c, A, bw, sub, y, dy):
+    """Outputs y (B,T,O) and their derivatives dy (B,T,O,P) w.r.t. every parameter (forward sensitivities:
+    the exact derivative of the same discrete map as ``forward``), given the initial state's ds0 (B,S,P).
+    Without networks (their outputs are held in the Jacobian kernels). Rows in parallel."""
+    for b in prange(U.shape[0]):
+        tangent_row(b, U, h, th, s0, ds0, c, A, bw, sub, y, dy)
+
+
 @njit(cache=True, inline='always', error_model='numpy')
 def stage_state(st, K, j, hk, A, Y):
     """Y = st + hk * sum_l A[j, l] K[l] (the state at stage j)."""
@@ -433,6 +445,70 @@ def forward_row(b, U, h, th, s0, c, A, bw, sub, states, y):
     for k in range(T):
         out(states[b, k], U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, buf)
         y[b, k, :] = g
+
+
+@njit(cache=True, error_model='numpy')
+def tangent_row(b, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
+    T = U.shape[1]
+    nst = c.shape[0]
+    K = np.zeros((nst, S))
+    dK = np.zeros((nst, S, P))
+    Y = np.zeros(S)
+    dY = np.zeros((S, P))
+    FS, FT, FI = np.zeros((S, S)), np.zeros((S, P)), np.zeros((S, 3))
+    g, gs, gt, gi = np.zeros(O), np.zeros((O, S)), np.zeros((O, P)), np.zeros((O, 3))
+    buf = np.zeros(NB)
+    st = s0[b].copy()
+    sig = ds0[b].copy()  # d(state)/d(parameters), (S, P)
+    lo, hi, fl = np.zeros(S), np.zeros(S), np.zeros(S)
+    dlo, dhi = np.zeros((S, P)), np.zeros((S, P))
+    if HAS_BOUNDS:
+        bounds(st, 0.0, 0.0, 0.0, th[b], lo, hi, dlo, dhi)
+    for k in range(T):
+        out_jac(st, U[b, k, 0], U[b, k, 1], U[b, k, 2], th[b], g, gs, gt, gi, buf)
+        for o in range(O):
+            y[b, k, o] = g[o]
+            for p in range(P):
+                acc = gt[o, p]
+                for i in range(S):
+                    acc += gs[o, i] * sig[i, p]
+                dy[b, k, o, p] = acc
+        if k == T - 1:
+            break
+        hk = h[b, k] / sub
+        for m in range(sub):
+            for j in range(nst):  # stage j: Y_j = s + hk sum_l A_jl K_l, K_j = f(Y_j); the same for tangents
+                stage_state(st, K, j, hk, A, Y)
+                for i in range(S):
+                    for p in range(P):
+                        acc = sig[i, p]
+                        for l in range(j):
+                            acc += hk * A[j, l] * dK[l, i, p]
+                        dY[i, p] = acc
+                uu, dd, aa = stage_input(U, b, k, (m + c[j]) / sub)
+                rhs_jac(Y, uu, dd, aa, th[b], K[j], FS, FT, FI, buf)
+                for i in range(S):
+                    for p in range(P):
+                        acc = FT[i, p]
+                        for r in range(S):
+                            acc += FS[i, r] * dY[r, p]
+                        dK[j, i, p] = acc
+            for i in range(S):
+                acc = 0.0
+                for j in range(nst):
+                    acc += bw[j] * K[j, i]
+                st[i] += hk * acc
+                for p in range(P):
+                    acc = 0.0
+                    for j in range(nst):
+                        acc += bw[j] * dK[j, i, p]
+                    sig[i, p] += hk * acc
+            if HAS_BOUNDS:  # a state held at a bound follows the bound
+                project(st, lo, hi, fl)
+                for i in range(S):
+                    if fl[i] != 0.0:
+                        for p in range(P):
+                            sig[i, p] = dhi[i, p] if fl[i] > 0 else dlo[i, p]
 
 
 @njit(cache=True, error_model='numpy')

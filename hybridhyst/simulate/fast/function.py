@@ -111,3 +111,29 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
     y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
                                     model.output_dim)
     return (y, states) if return_states else y
+
+
+def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
+                 method: str = "rk4", substeps: int = 1):
+    """Outputs ``(batch, time, output_dim)``, their derivatives ``(batch, time, output_dim, n)`` w.r.t. the n
+    parameter values of the equations (forward sensitivities of the compiled loop: one pass for all n, where
+    finite differences take n simulations) and those parameters' ``(effect, name)`` in that order.
+    ``dstate0 (batch, state_dim, n)``: the initial state's derivatives. Not differentiable itself; models
+    with networks are not covered (their layers are held in the Jacobian kernels)."""
+    if int(substeps) < 1:
+        raise ValueError(f"substeps must be >= 1, got {substeps}")
+    eq, module = compiled(model)
+    if eq.networks:
+        raise ValueError("tangents of the fast path do not cover models with networks; use the adjoint (backward)")
+    B, T = U.shape[0], U.shape[1]
+    c, A, bw = _tableau(method)
+
+    def numpy(x):
+        return x.detach().to(torch.float64).contiguous().numpy()
+
+    h = (t[..., 1:] - t[..., :-1]).expand(B, -1)
+    y = np.empty((B, T, model.output_dim))
+    dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))
+    module.tangent(numpy(U), numpy(h), numpy(_theta(eq, P, model, B, U)), numpy(state0), numpy(dstate0), c, A, bw,
+                   int(substeps), y, dy)
+    return torch.from_numpy(y).to(U.dtype), torch.from_numpy(dy).to(U.dtype), list(eq.param_keys)
