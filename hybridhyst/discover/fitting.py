@@ -68,9 +68,9 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
     than ``rtol`` (relative) per round, at most ``rounds`` rounds. A fixed budget can stop a fit halfway
     down a long valley (a new hysteretic state pulling the damping and stiffness with it); the next
     candidate would then get the credit for finishing it. Every start gets the first round; only the
-    ``keep`` lowest then continue (the rows are most of the cost: each Jacobian is one simulation per
-    coordinate and row). Halving the rows within the first round too was tried and lost the LuGre basin
-    of the independent test bed's ``lugre`` case (held-out 1.20 × noise, Fc 1.84 for 0.4)."""
+    ``keep`` lowest then continue (the rows are most of the cost: each accepted step costs a Jacobian per
+    row). Halving the rows within the first round too was tried and lost the LuGre basin of the independent
+    test bed's ``lugre`` case (held-out 1.20 × noise, Fc 1.84 for 0.4)."""
     lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False,
                             jacobian_rows=problem.jacobian_rows)
     for _ in range(rounds - 1):

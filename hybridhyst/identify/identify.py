@@ -90,16 +90,20 @@ class RecordsProblem:
         self.n_samples = sum(len(r) for r in self.records)
         self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
 
+    def _batch(self, X: torch.Tensor, group) -> dict:
+        """The simulation arguments of one time-grid group for the population ``X (N, D)``: member n at record
+        r is batch row n·R + r, with its parameter values at record r's conditions."""
+        _, t, U, _, cond = group
+        N, R = X.shape[0], U.shape[0]
+        return {"inputs": U.repeat(N, 1, 1), "t": t.repeat(N, 1), "values": self.space.values(X.to(U.dtype), cond, R),
+                "conditions": {k: v.repeat(N) for k, v in cond.items()} or None}  # (networks read the conditions)
+
     def predict_groups(self, X: torch.Tensor) -> list[torch.Tensor]:
         """Responses ``(N, R_g, T_g)`` of each time-grid group for the population ``X (N, D)``."""
         out = []
-        for _, t, U, _, cond in self.groups:
-            N, R = X.shape[0], U.shape[0]
-            values = self.space.values(X.to(U.dtype), cond, R)
-            rows = {k: v.repeat(N) for k, v in cond.items()} or None  # for effects without parameters (networks)
-            y = simulate(self.space.model, U.repeat(N, 1, 1), t=t.repeat(N, 1), values=values, conditions=rows,
-                         **self.sim)
-            out.append(y[..., 0].reshape(N, R, -1))
+        for group in self.groups:
+            y = simulate(self.space.model, **self._batch(X, group), **self.sim)
+            out.append(y[..., 0].reshape(X.shape[0], group[2].shape[0], -1))
         return out
 
     def predict(self, X: torch.Tensor) -> torch.Tensor:
@@ -144,14 +148,13 @@ class RecordsProblem:
     def _jacobian(self, X: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         idx = torch.nonzero(torch.as_tensor(free, dtype=torch.bool)).reshape(-1).tolist()
         res, jac = [], []
-        for _, t, U, Y, cond in self.groups:
+        for group in self.groups:
+            _, _, U, Y, cond = group
             N, R = X.shape[0], U.shape[0]
             Xd = X.detach().to(U.dtype)
             dvalues = self._value_jacobian(Xd, idx, cond, R)
-            rows = {k: v.repeat(N) for k, v in cond.items()} or None
-            y, dy, keys = simulate_jacobian(self.space.model, U.repeat(N, 1, 1), t.repeat(N, 1),
-                                            values=self.space.values(Xd, cond, R), conditions=rows,
-                                            method=self.sim["method"], substeps=self.sim["substeps"])
+            y, dy, keys = simulate_jacobian(self.space.model, **self._batch(Xd, group), method=self.sim["method"],
+                                            substeps=self.sim["substeps"])
             dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
             res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
             jac.append((dy[..., 0, :] @ dvdx).reshape(N, -1, len(idx)))

@@ -220,7 +220,7 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
             tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, n * B)).tangent
         if tangent is not None:
             ds0 = tangent.reshape(n, B, -1).permute(1, 2, 0).contiguous()
-    y, dy, _ = tangent_fast(model, with_rates(u, t), t, P, s0, ds0, method=method or "rk4", substeps=substeps)
+    y, dy = tangent_fast(model, with_rates(u, t), t, P, s0, ds0, method=method or "rk4", substeps=substeps)
     return y, dy, keys
 
 

@@ -115,9 +115,9 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
 
 def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
                  method: str = "rk4", substeps: int = 1):
-    """Outputs ``(batch, time, output_dim)``, their derivatives ``(batch, time, output_dim, n)`` w.r.t. the n
-    parameter values of the equations (forward sensitivities of the compiled loop: one pass for all n, where
-    finite differences take n simulations) and those parameters' ``(effect, name)`` in that order.
+    """Outputs ``(batch, time, output_dim)`` and their derivatives ``(batch, time, output_dim, n)`` w.r.t. the
+    n parameter values of the equations, in the order of ``compiled(model)[0].param_keys`` (forward
+    sensitivities of the compiled loop: one pass for all n, where finite differences take n simulations).
     ``dstate0 (batch, state_dim, n)``: the initial state's derivatives. Not differentiable itself; models
     with networks are not covered (their layers are held in the Jacobian kernels)."""
     if int(substeps) < 1:
@@ -136,4 +136,4 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))
     module.tangent(numpy(U), numpy(h), numpy(_theta(eq, P, model, B, U)), numpy(state0), numpy(dstate0), c, A, bw,
                    int(substeps), y, dy)
-    return torch.from_numpy(y).to(U.dtype), torch.from_numpy(dy).to(U.dtype), list(eq.param_keys)
+    return torch.from_numpy(y).to(U.dtype), torch.from_numpy(dy).to(U.dtype)
