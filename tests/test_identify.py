@@ -468,13 +468,9 @@ def test_step_doubling_identifies_loops_that_one_step_per_sample_cannot_follow()
         z = solve_ivp(rate, (0, 2), [0.0], t_eval=t, args=(amp,), rtol=1e-10, atol=1e-12, max_step=5e-4).y[0]
         x = amp * np.sin(2 * np.pi * t)
         records.append(Record(f"a{amp}", t, x, alpha * x + (1 - alpha) * z, conditions={"amplitude": amp}))
-    def run(resolve):
-        # The refit at finer steps starts from the fit at one step per sample, whose basin depends on the search
-        # seed: over seeds 0-5, 1-2 reach the resolved fit (8 sub-steps, 1.4e-4) and the others stop at 4
-        # sub-steps and 0.7-1.1 % of the peak, with either Jacobian in LM (measured 2026-11-24). Seed 4 reaches
-        # it with both; a refit that escapes that basin is not done yet.
+    def run(resolve, seed=4):
         model = bouc_wen_classic(A=5.0, beta=3.0, gamma=-2.0).double()
-        return identify(model, records, fisher=False, progress=False, resolve=resolve, generations=15, seed=4)
+        return identify(model, records, fisher=False, progress=False, resolve=resolve, generations=15, seed=seed)
 
     plain, resolved = run(False), run(True)
     assert plain.substeps == 1 and math.isnan(plain.resolution)
@@ -486,6 +482,12 @@ def test_step_doubling_identifies_loops_that_one_step_per_sample_cannot_follow()
     assert rmse < 0.01 * peak and resolved.rmse == pytest.approx(rmse, rel=1e-6)
     # one step per sample: 2.3 % of the peak and n = 0.64 with γ at its box edge (measured); resolved: 5e-5, n = 3.99
     assert plain.rmse > 10 * resolved.rmse and resolved.x["hysteresis.n"] == pytest.approx(n, rel=0.05)
+    # The refit at the finer step starts in the basin of the one-step fit, shaped by the integrator's error; the
+    # search at the finer step escapes it. Over search seeds 0-5, 4 reach the resolved fit (8 sub-steps, 1.4e-4)
+    # with the second search and 1 without it (the others stopped at 4 sub-steps, 0.7-1.1 % of the peak; measured
+    # 2026-11-25; a search of 15 generations at 8 sub-steps from the start finds it for 4 of the 6 too).
+    reached = [seed for seed in range(6) if run(True, seed).rmse < 5e-4 * peak]
+    assert len(reached) >= 3, reached
 
 
 def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):
