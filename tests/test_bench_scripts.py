@@ -149,7 +149,8 @@ def test_bench_jacobian_quick_agrees_with_finite_differences_and_reports_its_rat
     assert row["exact_over_simulation"] == pytest.approx(row["exact_s"] / row["simulation_s"])
     assert row["fd_over_exact"] == pytest.approx(row["finite_differences_s"] / row["exact_s"])
     # every coordinate's column: the exact Jacobian equals forward differences to their truncation error
-    assert len(row["column_difference"]) == row["coordinates"] and row["column_difference_max"] < 1e-3
+    assert len(row["column_difference"]) == row["coordinates"] and row["columns_below_floor"] == 0
+    assert row["column_difference_max"] < 1e-3
     lm = row["lm"]  # the same path either way; the exact Jacobian simulates one row per Jacobian, not F + 1
     assert lm["exact"]["cost"] == pytest.approx(lm["finite_differences"]["cost"], rel=1e-5)
     assert lm["exact"]["evaluations"] < lm["finite_differences"]["evaluations"]

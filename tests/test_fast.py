@@ -77,7 +77,8 @@ def _every_effect(structure: str):
 # The all-effects models compile the largest loops of the suite (on a fresh machine about 45 s for the forward and
 # adjoint loops and 20 s for the sensitivities, per structure): the default run checks the constitutive structure,
 # the driven oscillator runs with -m slow. By default the oscillator's own equations are checked with the compositions
-# built on it and with the newest effects alone; an effect's force is generated the same way in both structures.
+# built on it and with the newest effects alone, its sensitivities with a clearance and a spring; an effect's force
+# is generated the same way in both structures.
 EVERY_EFFECT_STRUCTURES = ["constitutive", pytest.param("oscillator", marks=pytest.mark.slow)]
 
 
@@ -175,9 +176,21 @@ def test_jacobian_equals_the_adjoint_for_every_effect(structure, float64):
     """``simulate_jacobian`` (forward sensitivities w.r.t. every parameter in one pass) against the exact
     adjoint of the reference loop: per row and parameter, w · dy equals the gradient of w · y, with the play's
     projection (backlash, clearance) and sub-steps in the loop."""
-    model = _every_effect(structure)
     u, t = _every_effect_input()
-    u = torch.stack([u, 0.8 * u])
+    _assert_jacobian(_every_effect(structure), torch.stack([u, 0.8 * u]), t)
+
+
+def test_jacobian_equals_the_adjoint_on_the_driven_oscillator(float64):
+    """The same on the oscillator's own equations (by default; its all-effects case runs with -m slow): a
+    clearance (a projected state) and a spring on a mass driven near resonance."""
+    model = DrivenOscillator({"clearance": EFFECTS["clearance"](**ALONE["clearance"]),
+                              "spring": EFFECTS["linear_stiffness"](k=2.0)}, mass=0.05).double()
+    t = torch.arange(400) * 5e-3
+    u = 1.5 * (torch.sin(2 * math.pi * 1.1 * t) + 0.2 * torch.sin(2 * math.pi * 3.7 * t + 0.5))
+    _assert_jacobian(model, torch.stack([u, 0.7 * u]), t)
+
+
+def _assert_jacobian(model, u, t):
     with torch.no_grad():
         P = model.evaluate(None, 2)
     values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}

@@ -468,9 +468,10 @@ def test_step_doubling_identifies_loops_that_one_step_per_sample_cannot_follow()
         z = solve_ivp(rate, (0, 2), [0.0], t_eval=t, args=(amp,), rtol=1e-10, atol=1e-12, max_step=5e-4).y[0]
         x = amp * np.sin(2 * np.pi * t)
         records.append(Record(f"a{amp}", t, x, alpha * x + (1 - alpha) * z, conditions={"amplitude": amp}))
-    def run(resolve, seed=4):
+    def run(resolve, seed=4, **kw):
         model = bouc_wen_classic(A=5.0, beta=3.0, gamma=-2.0).double()
-        return identify(model, records, fisher=False, progress=False, resolve=resolve, generations=15, seed=seed)
+        kw = {"fisher": False, **kw}
+        return identify(model, records, progress=False, resolve=resolve, generations=15, seed=seed, **kw)
 
     plain, resolved = run(False), run(True)
     assert plain.substeps == 1 and math.isnan(plain.resolution)
@@ -482,12 +483,42 @@ def test_step_doubling_identifies_loops_that_one_step_per_sample_cannot_follow()
     assert rmse < 0.01 * peak and resolved.rmse == pytest.approx(rmse, rel=1e-6)
     # one step per sample: 2.3 % of the peak and n = 0.64 with γ at its box edge (measured); resolved: 5e-5, n = 3.99
     assert plain.rmse > 10 * resolved.rmse and resolved.x["hysteresis.n"] == pytest.approx(n, rel=0.05)
-    # The refit at the finer step starts in the basin of the one-step fit, shaped by the integrator's error; the
-    # search at the finer step escapes it. Over search seeds 0-5, 4 reach the resolved fit (8 sub-steps, 1.4e-4)
-    # with the second search and 1 without it (the others stopped at 4 sub-steps, 0.7-1.1 % of the peak; measured
-    # 2026-11-25; a search of 15 generations at 8 sub-steps from the start finds it for 4 of the 6 too).
+    # The refit at a finer step starts in the basin of the coarser fit, shaped by the integrator's error; the search
+    # again at each finer step escapes it. Over search seeds 0-5, all 6 reach the resolved fit (8 sub-steps, 1.4e-4)
+    # and 1 without the second search (the others stopped at 4 sub-steps, 0.7-1.1 % of the peak; measured 2026-11-25).
     reached = [seed for seed in range(6) if run(True, seed).rmse < 5e-4 * peak]
-    assert len(reached) >= 3, reached
+    assert len(reached) >= 5, reached
+
+
+def test_step_doubling_with_a_noise_level_ends_at_the_least_squares_minimum():
+    """With ``noise_sd`` the search stops at the noise level; the Fisher analysis needs the least-squares minimum,
+    also where step doubling refitted at a finer step (lm_steps from the coarser fit): LM from the result gains
+    nothing. The noise level given (0.02) is above the data's (none), so the search stops far short of it."""
+    from scipy.integrate import solve_ivp
+
+    from hybridhyst.physics.compositions import bouc_wen_classic
+
+    def rate(s, z, amp):  # sharp classic Bouc–Wen loops by scipy (A, β, γ, n = 6, 3.5, -2.5, 4; α = 0.35)
+        v = amp * 2 * np.pi * np.cos(2 * np.pi * s)
+        return [6.0 * v - 3.5 * abs(v) * abs(z[0]) ** 3 * z[0] + 2.5 * v * abs(z[0]) ** 4]
+
+    records = []
+    for amp in (2.0, 5.0):
+        t = np.arange(81) / 40
+        z = solve_ivp(rate, (0, 2), [0.0], t_eval=t, args=(amp,), rtol=1e-10, atol=1e-12, max_step=5e-4).y[0]
+        x = amp * np.sin(2 * np.pi * t)
+        records.append(Record(f"a{amp}", t, x, 0.35 * x + 0.65 * z))
+    start = bouc_wen_classic(A=5.0, beta=3.0, gamma=-2.0).double
+    # Before, seed 1 ended at 7.3e-6 (8 sub-steps; the minimum 2e-8): a fit from the search again at the finer step,
+    # stopped at the target, was taken for one refined on (measured 2026-11-25). Not every seed gets there: from
+    # some points lm_steps (40) do not cross the valley of this sharp loop (2.8e-4 where 80 steps reach 4e-5).
+    for seed in (1, 2):
+        res = identify(start(), records, progress=False, resolve=True, generations=15, seed=seed, noise_sd=0.02)
+        assert res.substeps >= 4 and res.fisher is not None
+        problem = RecordsProblem(SearchSpace(start()), records, substeps=res.substeps)  # identify's own boxes
+        x = torch.tensor([res.x[n] for n in problem.space.names], dtype=torch.float64)
+        after = levenberg_marquardt(problem.residuals, problem.space, x[None], iters=40, progress=False).cost
+        assert res.cost - after < 1e-3 * 0.02**2, (seed, res.cost, after)  # 0.1 % of the noise level's MSE
 
 
 def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):

@@ -42,7 +42,8 @@ class IdentificationResult:
     rmse : pooled response RMSE; per_record : ``{record name: RMSE}``; cost : best MSE.
     fisher : identifiability analysis (None when skipped); identifiable : its identifiable combinations;
     uncertainty : standard deviation of each coordinate ``{name: sd}``.
-    history : best cost per search generation, then the refinement's per-step summed cost.
+    history : ``{"search": best cost per search generation, "refine": the refinement's cost per step}``; with
+    ``resolve``, the searches and refinements at finer steps are appended in the order they ran.
     wall_s : wall time [s]; evaluations : simulated population rows (× records); search : method name.
     at_bounds : ``{name: "lower" | "upper"}``, coordinates that ended at an edge of the search box (within
     0.1 % of its width, on the log scale where it searches one): the box, not the data, set them.
@@ -334,17 +335,23 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
         torch.set_num_threads(old_threads)
 
 
+def _problem(space, records, input_channels, ode_method, substeps, backend, decimate: int = 1) -> RecordsProblem:
+    """``records`` (for a search: every ``decimate``-th sample of each) at ``substeps`` per sample interval."""
+    if int(decimate) != 1:
+        records = decimate_all(records, int(decimate), "identification")
+    return RecordsProblem(space, records, input_channels, ode_method, int(substeps), backend)
+
+
 def _identify(model, records, *, method, pop, generations, rounds, refine, restarts, lm_steps, adam_steps,
               lbfgs_steps, lr, bounds, box_factor, noise_sd, target, seed, fisher, jacobian, progress, input_channels,
               ode_method, substeps, search_decimate, backend, resolve, max_substeps) -> IdentificationResult:
     start = time.perf_counter()
     records = _records(records)
     space = SearchSpace(model, bounds, factor=box_factor, condition_ranges=condition_ranges(records))
-    problem = RecordsProblem(space, records, input_channels, ode_method, substeps, backend)
-    coarse = problem
-    if int(search_decimate) != 1:
-        coarse = RecordsProblem(space, decimate_all(records, int(search_decimate), "identification"),
-                                input_channels, ode_method, substeps, backend)
+    sim = (input_channels, ode_method)
+    problem = _problem(space, records, *sim, substeps, backend)
+    decimate = int(search_decimate)
+    coarse = _problem(space, records, *sim, substeps, backend, decimate) if decimate != 1 else problem
     if target is None and noise_sd:
         target = (1.01 * noise_sd) ** 2
     mode = {True: "lm", False: "none", None: "none"}.get(refine, refine)
@@ -355,11 +362,11 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
     x, cost, history, evals = _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mode, opts,
                                       progress)
 
-    state = {"problem": problem, "x": x, "cost": cost, "evals": evals, "went_on": False}
+    state = {"problem": problem, "x": x, "cost": cost, "evals": evals}
 
     def go_on(s: int) -> None:  # Levenberg–Marquardt on from the current point at s sub-steps per sample
         if s != state["problem"].sim["substeps"]:
-            state["problem"] = RecordsProblem(space, records, input_channels, ode_method, s, backend)
+            state["problem"] = _problem(space, records, *sim, s, backend)
         p, x = state["problem"], state["x"]
         with torch.no_grad():
             cost = float(p.cost(x[None])[0])  # the same point on this problem
@@ -370,35 +377,39 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         if ref.cost < cost or not math.isfinite(cost):
             x, cost = ref.x, ref.cost
         space.to_model(x)
-        state.update(x=x, cost=cost, went_on=True)
+        state.update(x=x, cost=cost)
 
     def check(s: int) -> float:  # step doubling from s sub-steps, going on (go_on) wherever it doubles
         space.to_model(state["x"])
         return resolved_substeps(space.model, records, substeps=s, max_substeps=int(max_substeps), refit=go_on,
                                  method=ode_method, backend=backend, input_channels=tuple(input_channels))[1]
 
-    resolution = math.nan
+    def search_again(s: int, k: int) -> None:  # the search at s sub-steps; its fit replaces the current if better
+        grid = state["problem"] if decimate == 1 else _problem(  # the same step on the decimated grid
+            space, records, *sim, s * decimate, backend, decimate)
+        x2, cost2, more, n = _rounds(state["problem"], grid, method, pop, generations, rounds,
+                                     seed + k * max(1, int(rounds)), target, mode, opts, progress)
+        state["evals"] += n
+        for key, values in more.items():
+            history[key] += values
+        if cost2 < state["cost"]:
+            state.update(x=x2, cost=cost2)
+
+    resolution, searched = math.nan, problem.sim["substeps"]
     if resolve and math.isfinite(cost):
-        resolution = check(problem.sim["substeps"])
-        finer = state["problem"].sim["substeps"]
-        if finer != problem.sim["substeps"]:
-            # The refit at the finer step starts in the basin of the coarse fit, whose optimum the integrator's
-            # error shaped; search again at the finer step and keep the better (checked again if it is the new one)
-            fine = state["problem"]
-            fine_coarse = fine if int(search_decimate) == 1 else RecordsProblem(
-                space, decimate_all(records, int(search_decimate), "identification"), input_channels, ode_method,
-                finer, backend)
-            x2, cost2, history2, evals2 = _rounds(fine, fine_coarse, method, pop, generations, rounds, seed, target,
-                                                  mode, opts, progress)
-            state["evals"] += evals2
-            for key, values in history2.items():
-                history[key] += values
-            if cost2 < state["cost"]:
-                state.update(x=x2, cost=cost2)
-                resolution = check(finer)
-    if fisher and target is not None and state["cost"] <= target and mode != "none" and not state["went_on"]:
-        # the search stopped at the target, short of the least-squares minimum; the Fisher standard deviations
-        # describe the minimum's scatter, so go on to it (the early-stopped point scatters more than they say)
+        resolution = check(searched)
+        # The refit at a finer step starts in the basin of the fit at the coarser one, whose optimum the
+        # integrator's error shaped: search again at the finer step, keep the better and check it again
+        while state["problem"].sim["substeps"] != searched and not (target is not None and state["cost"] <= target):
+            searched = state["problem"].sim["substeps"]
+            kept = state["x"]
+            search_again(searched, int(math.log2(searched)))
+            if state["x"] is not kept:
+                resolution = check(searched)
+    if fisher and target is not None and state["cost"] <= target and mode != "none":
+        # the search stopped at the target, short of the least-squares minimum (as may a refit at a finer step,
+        # lm_steps from a coarser fit); the Fisher standard deviations describe the minimum's scatter, so go on to
+        # it (the early-stopped point scatters more than they say)
         go_on(state["problem"].sim["substeps"])
     problem, x, cost, evals = state["problem"], state["x"], state["cost"], state["evals"]
     if not math.isfinite(cost):
