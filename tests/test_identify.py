@@ -229,6 +229,30 @@ def test_levenberg_marquardt_survives_rows_that_diverge():
     assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
 
 
+def test_levenberg_marquardt_takes_differences_where_an_exact_jacobian_is_not_finite():
+    """A row whose exact Jacobian is not finite where its residuals are (d|z|^n/dz at z = 0 for n < 1: a Bouc–Wen
+    start from rest) gets a finite-difference Jacobian instead of a NaN step, and reaches the optimum; before, it
+    stayed at its start (the Bouc–Wen benchmark's hysteresis candidate, 2026-11-25)."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([0.0, 0.0], [4.0, 4.0])
+    target = torch.tensor([1.0, 2.0], dtype=torch.float64)
+    weights = torch.tensor([1.0, 3.0], dtype=torch.float64)
+
+    def residual_rows(X):
+        return (X - target) * weights
+
+    def jacobian_rows(X, free):  # exact, but infinite on the line x0 = 2.5 (where the start lies)
+        J = torch.diag(weights)[None, :, free].expand(X.shape[0], -1, -1).clone()
+        J[(X[:, 0] - 2.5).abs() < 1e-9] = float("inf")
+        return residual_rows(X), J
+
+    start = torch.tensor([[2.5, 2.5]], dtype=torch.float64)
+    res = levenberg_marquardt(residual_rows, box, start, iters=30, progress=False, jacobian_rows=jacobian_rows)
+    assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
+    assert res.evaluations > 1 + 2  # the start's Jacobian took differences: one row per coordinate
+
+
 def test_levenberg_marquardt_moves_only_free_coordinates():
     """``free`` masks coordinates: held ones keep each row's start, free ones reach their conditional optimum."""
     from hybridhyst.identify.space import Box

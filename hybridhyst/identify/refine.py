@@ -167,6 +167,18 @@ def _lm_exact(jacobian_rows, space: Box, W: torch.Tensor, free: torch.Tensor) ->
     return r, J * dX[:, free][:, None, :]
 
 
+def _lm_exact_or_fd(jacobian_rows, residual_rows, space: Box, W: torch.Tensor, free: torch.Tensor,
+                    h: float) -> tuple[torch.Tensor, torch.Tensor, int]:
+    """``_lm_exact``, with forward differences for the rows whose exact Jacobian is not finite where their
+    residuals are (a sensitivity that is infinite at a point the response is not, such as d|z|^n/dz at z = 0 for
+    n < 1: a Bouc–Wen start from rest). Also returns how many rows took differences."""
+    r, J = _lm_exact(jacobian_rows, space, W, free)
+    bad = ~torch.isfinite(J).flatten(1).all(dim=1) & torch.isfinite(r).all(dim=1)
+    if bool(bad.any()):
+        J[bad] = _lm_jacobian(residual_rows, space, W[bad], r[bad], h, free)
+    return r, J, int(bad.sum())
+
+
 def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
     """Damped Gauss–Newton steps ``(K, D)``; a row whose residuals or Jacobian are not finite (a diverged
     simulation) or whose system is singular gets a zero step instead of stopping the batch."""
@@ -193,8 +205,8 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Gauss–Newton steps are
     robust in the ill-conditioned valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order
     methods crawl. Jacobians come from ``jacobian_rows(X, free) -> (residuals, (K, M, F))`` where given
-    (``RecordsProblem.jacobian_rows``: exact forward sensitivities), else forward differences (F more
-    rows per accepted row). ``evaluations`` counts simulated rows either way (a Jacobian pass as one).
+    (``RecordsProblem.jacobian_rows``: exact forward sensitivities; forward differences for a row whose exact
+    Jacobian is not finite), else forward differences (F more rows per accepted row). ``evaluations`` counts simulated rows either way (a Jacobian pass as one).
     ``free`` : ``(D,)`` booleans, the coordinates that may move (default all); the others keep each row's
     start value (the discovery loop re-balances a fitted model against a new effect's start this way).
     """
@@ -210,9 +222,11 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
         r = _lm_residuals(residual_rows, space, W)
         J = _lm_jacobian(residual_rows, space, W, r, h, free)
     else:
-        r, J = _lm_exact(jacobian_rows, space, W, free)
+        r, J, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W, free, h)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
     history, evals = [float(cost.min())], K * (F + 1 if jacobian_rows is None else 1)
+    if jacobian_rows is not None:
+        evals += differenced * F
     with progress_bar(total=iters, desc="levenberg-marquardt", enabled=progress) as bar:
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
@@ -230,8 +244,8 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
                     J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h, free)
                     evals += int(ok.sum()) * F
                 else:
-                    J[ok] = _lm_exact(jacobian_rows, space, W[ok], free)[1]
-                    evals += int(ok.sum())
+                    _, J[ok], differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W[ok], free, h)
+                    evals += int(ok.sum()) + differenced * F
             lam = torch.where(ok, lam / 3, lam * 4).clamp(1e-12, 1e12)
             history.append(float(cost.min()))
             bar.update(1)
