@@ -206,7 +206,8 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     robust in the ill-conditioned valleys of traded-off parameters (Bouc–Wen D, A, α, k) where first-order
     methods crawl. Jacobians come from ``jacobian_rows(X, free) -> (residuals, (K, M, F))`` where given
     (``RecordsProblem.jacobian_rows``: exact forward sensitivities; forward differences for a row whose exact
-    Jacobian is not finite), else forward differences (F more rows per accepted row). ``evaluations`` counts simulated rows either way (a Jacobian pass as one).
+    Jacobian is not finite), else forward differences (F more rows per accepted row). ``evaluations`` counts
+    simulated rows either way (a Jacobian pass as one).
     ``free`` : ``(D,)`` booleans, the coordinates that may move (default all); the others keep each row's
     start value (the discovery loop re-balances a fitted model against a new effect's start this way).
     """
