@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_simulate import command_line, emit, machine_info, machine_markdown  # noqa: E402
+from bench_simulate import bench_parser, command_line, emit, machine_info, machine_markdown  # noqa: E402
 
 MIXTURE, PRESSURE, NOISE_SD = "1:3", 0.05, 0.2
 FLOOR = 1.02 * NOISE_SD
@@ -488,10 +488,7 @@ def report_markdown(result: dict) -> str:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="smoke run: short caps, three pressures in (4)")
-    ap.add_argument("--json", metavar="PATH", help="write the results as JSON")
-    ap.add_argument("--write-readme", action="store_true", help="regenerate the bench_identify README section")
+    ap = bench_parser(__doc__, "bench_identify", "smoke run: short caps, three pressures in (4)")
     ap.add_argument("--scipy-max-s", type=float, default=600.0, help="wall-time cap of the scipy run [s]")
     ap.add_argument("--scenarios", default="tight,wide", help="bound boxes for (3), comma separated")
     ap.add_argument("--skip-scipy", action="store_true", help="run hybridhyst only")

@@ -36,7 +36,7 @@ from pathlib import Path
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_simulate import command_line, emit, machine_info, machine_markdown  # noqa: E402
+from bench_simulate import bench_parser, command_line, emit, machine_info, machine_markdown  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ROWS, LM_ITERS, H = 3, 25, 1e-6  # H: levenberg_marquardt's default forward-difference step (on the logits)
@@ -163,11 +163,7 @@ def report_markdown(result: dict) -> str:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="smoke run: seed001 at one sub-step, one repeat")
-    ap.add_argument("--json", metavar="PATH", help="write the results as JSON")
-    ap.add_argument("--write-readme", action="store_true", help="regenerate the bench_jacobian README section")
-    return ap.parse_args(argv)
+    return bench_parser(__doc__, "bench_jacobian", "smoke run: seed001 at one sub-step, one repeat").parse_args(argv)
 
 
 def main(argv=None) -> dict:

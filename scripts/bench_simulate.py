@@ -281,11 +281,18 @@ def report_markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="small grid (smoke run)")
+def bench_parser(doc: str, section: str, quick: str) -> argparse.ArgumentParser:
+    """The arguments every benchmark script takes: ``--quick`` (what it does: ``quick``), ``--json``,
+    ``--write-readme`` (the ``section`` of the performance README)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help=quick)
     ap.add_argument("--json", metavar="PATH", help="write the results as JSON")
-    ap.add_argument("--write-readme", action="store_true", help=f"regenerate the section in {README}")
+    ap.add_argument("--write-readme", action="store_true", help=f"regenerate the {section} section of {README}")
+    return ap
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    ap = bench_parser(__doc__, "bench_simulate", "small grid (smoke run)")
     ap.add_argument("--fresh-cache", action="store_true",
                     help="compile into an empty cache directory, so the first call measures a real compile")
     return ap.parse_args(argv)

@@ -229,10 +229,24 @@ def test_levenberg_marquardt_survives_rows_that_diverge():
     assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
 
 
+def test_box_coordinates_have_finite_gradients_on_wide_linear_scales():
+    """``from_unit`` is differentiated by Levenberg–Marquardt's exact Jacobians and the gradient refinement; a
+    linear coordinate whose box reaches beyond ±709 (a Bouc–Wen β of ±1.5e5 1/m) once got a NaN gradient from
+    the log branch's overflowing exp. That made the Bouc–Wen benchmark's hysteresis candidate stay at its
+    start with exact Jacobians (2026-11-25)."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([-1.5e5, 0.0, 0.1], [1.5e5, 7.6e6, 20.0], log=[False, False, True])
+    U = torch.tensor([[0.505, 0.0005, 0.5]], dtype=torch.float64, requires_grad=True)
+    X = box.from_unit(U)
+    (dX,) = torch.autograd.grad(X.sum(), U)
+    assert torch.allclose(X.detach(), torch.tensor([[1.5e3, 3.8e3, math.sqrt(2.0)]], dtype=torch.float64))
+    assert torch.allclose(dX, torch.tensor([[3e5, 7.6e6, math.sqrt(2.0) * math.log(200.0)]], dtype=torch.float64))
+
+
 def test_levenberg_marquardt_takes_differences_where_an_exact_jacobian_is_not_finite():
-    """A row whose exact Jacobian is not finite where its residuals are (d|z|^n/dz at z = 0 for n < 1: a Bouc–Wen
-    start from rest) gets a finite-difference Jacobian instead of a NaN step, and reaches the optimum; before, it
-    stayed at its start (the Bouc–Wen benchmark's hysteresis candidate, 2026-11-25)."""
+    """A row whose exact Jacobian is not finite where its residuals are (a sensitivity that overflows) gets a
+    finite-difference Jacobian instead of zero steps, and reaches the optimum."""
     from hybridhyst.identify.space import Box
 
     box = Box([0.0, 0.0], [4.0, 4.0])

@@ -384,7 +384,7 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         return resolved_substeps(space.model, records, substeps=s, max_substeps=int(max_substeps), refit=go_on,
                                  method=ode_method, backend=backend, input_channels=tuple(input_channels))[1]
 
-    def search_again(s: int, k: int) -> None:  # the search at s sub-steps; its fit replaces the current if better
+    def search_again(s: int, k: int) -> bool:  # the search at s sub-steps; its fit replaces the current if better
         grid = state["problem"] if decimate == 1 else _problem(  # the same step on the decimated grid
             space, records, *sim, s * decimate, backend, decimate)
         x2, cost2, more, n = _rounds(state["problem"], grid, method, pop, generations, rounds,
@@ -392,8 +392,10 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         state["evals"] += n
         for key, values in more.items():
             history[key] += values
-        if cost2 < state["cost"]:
+        better = cost2 < state["cost"]
+        if better:
             state.update(x=x2, cost=cost2)
+        return better
 
     resolution, searched = math.nan, problem.sim["substeps"]
     if resolve and math.isfinite(cost):
@@ -402,9 +404,7 @@ def _identify(model, records, *, method, pop, generations, rounds, refine, resta
         # integrator's error shaped: search again at the finer step, keep the better and check it again
         while state["problem"].sim["substeps"] != searched and not (target is not None and state["cost"] <= target):
             searched = state["problem"].sim["substeps"]
-            kept = state["x"]
-            search_again(searched, int(math.log2(searched)))
-            if state["x"] is not kept:
+            if search_again(searched, int(math.log2(searched))):
                 resolution = check(searched)
     if fisher and target is not None and state["cost"] <= target and mode != "none":
         # the search stopped at the target, short of the least-squares minimum (as may a refit at a finer step,

@@ -170,8 +170,8 @@ def _lm_exact(jacobian_rows, space: Box, W: torch.Tensor, free: torch.Tensor) ->
 def _lm_exact_or_fd(jacobian_rows, residual_rows, space: Box, W: torch.Tensor, free: torch.Tensor,
                     h: float) -> tuple[torch.Tensor, torch.Tensor, int]:
     """``_lm_exact``, with forward differences for the rows whose exact Jacobian is not finite where their
-    residuals are (a sensitivity that is infinite at a point the response is not, such as d|z|^n/dz at z = 0 for
-    n < 1: a Bouc–Wen start from rest). Also returns how many rows took differences."""
+    residuals are (a sensitivity that overflows where the response does not), so that such a row still moves
+    instead of getting zero steps. Also returns how many rows took differences."""
     r, J = _lm_exact(jacobian_rows, space, W, free)
     bad = ~torch.isfinite(J).flatten(1).all(dim=1) & torch.isfinite(r).all(dim=1)
     if bool(bad.any()):

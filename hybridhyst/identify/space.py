@@ -107,7 +107,10 @@ class Box:
         """Unit-cube points ``(N, D)`` → coordinates (differentiable)."""
         lo, hi = self._ends(U)
         s = lo + (hi - lo) * U
-        return torch.where(self.log.to(U.device), s.exp(), s)
+        log = self.log.to(U.device)
+        # exp only where the scale is logarithmic: a linear coordinate's exp overflows for |s| > 709, and the
+        # unused branch's inf · 0 would make its gradient NaN
+        return torch.where(log, torch.where(log, s, 0.0).exp(), s)
 
     def to_unit(self, X: torch.Tensor) -> torch.Tensor:
         """Coordinates ``(N, D)`` → unit-cube points."""
