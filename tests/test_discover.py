@@ -272,7 +272,7 @@ def test_bad_input_is_a_clear_error(float64):
         build_model("constitutive", {"f": {"effect": "dahll"}})
 
 
-def test_discover_app_on_the_measured_brfd_data(tmp_path):
+def test_discover_app_on_the_measured_brfd_data(tmp_path, capsys):
     from hydra import compose, initialize_config_dir
 
     from hybridhyst.cli import discover as app
@@ -288,7 +288,12 @@ def test_discover_app_on_the_measured_brfd_data(tmp_path):
     saved = json.loads((tmp_path / "discovery.json").read_text())
     assert saved["steps"] == report["steps"] and len(saved["records"]["test"]) == 4  # the earthquakes
     assert saved["after"]["val_rmse"] <= saved["before"]["val_rmse"]
-    assert (tmp_path / "report.md").read_text().startswith("# Discovery: BRFD")
+    text = (tmp_path / "report.md").read_text()
+    assert text.startswith("# Discovery: BRFD")
+    # asymmetric Coulomb is accepted at the one step allowed: the report and the terminal say the cap ended it
+    assert [s["effect"] for s in saved["steps"]] == ["asymmetric_coulomb"] and saved["stopped"] == "max_steps"
+    assert "stopped at its cap on effects added (`discover.max_steps` = 1)" in text
+    assert "  stopped at the cap on effects added (discover.max_steps=1)" in capsys.readouterr().out
     with pytest.raises(ValueError, match="is for hybridhyst-study, not hybridhyst-discover"):
         app.run(wrong)
 

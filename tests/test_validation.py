@@ -1,15 +1,20 @@
-"""Leave-one-condition-out validation in the discovery loop (``discover.validation``). The data come from numpy
+"""Leave-one-condition-out validation, alone and beside the validation records, in the discovery loop
+(``discover.validation``). The data come from numpy
 (F = k x + c(p) v, c linear in the pressure); the expected scores from numpy's least squares, not the library."""
 
+import json
 import math
+import pickle
 
 import numpy as np
 import pytest
 
+from hybridhyst.cli.discover import summary_lines
 from hybridhyst.data.records import Record
 from hybridhyst.discover import discover
 from hybridhyst.discover.fitting import polish
-from hybridhyst.discover.validation import Validation, condition_groups
+from hybridhyst.discover.report import report_markdown
+from hybridhyst.discover.validation import Score, Validation, condition_groups, improves, within
 from hybridhyst.physics.effects import LinearStiffness, Viscous
 from hybridhyst.physics.models import Constitutive
 from hybridhyst.physics.parameters import Linear
@@ -85,12 +90,14 @@ def test_a_trend_that_carries_to_a_pressure_left_out_scores_at_the_noise_and_a_c
     assert score(trend, SIM) <= 1.2 * NOISE < 2 * NOISE < score(constant, SIM)
 
 
-def test_loco_needs_two_operating_points_and_an_unknown_kind_is_refused():
+def test_loco_needs_two_operating_points_both_falls_back_to_the_records_and_an_unknown_kind_is_refused():
     one = _records((0.2, 0.2))
     with pytest.raises(ValueError, match="share one"):
         Validation("loco", one, [], lm_steps=5, box_factor=10.0)
     with pytest.raises(ValueError, match="share one"):  # refused before the nominal's identification
         discover(one, _model(0.3), validation="loco", identify_options={"generations": 10_000}, progress=False)
+    both = Validation("both", one, [], lm_steps=5, box_factor=10.0)  # the validation records judge alone
+    assert not both.groups and "nothing to leave out" in both.scored and not both.out_of_sample
     with pytest.raises(ValueError, match="unknown validation 'lofo'"):
         discover(_records(), _model(0.3), validation="lofo", progress=False)
 
@@ -105,3 +112,56 @@ def test_the_loop_with_loco_finds_the_pressure_trend_and_says_how_it_judged():
     assert rep["validation"]["rmse_after"] <= 1.2 * NOISE < rep["validation"]["rmse_before"]
     assert rep["steps"][0]["val_rmse"] == pytest.approx(rep["validation"]["rmse_after"], rel=0.05)
     assert rep["after"]["test_rmse"] <= 1.5 * NOISE  # 0.4 MPa: beyond every training pressure
+
+
+def test_a_score_of_several_errors_improves_only_where_every_one_falls():
+    old = Score({"records": 1.0, "loco": 2.0})
+    assert float(old) == 1.0 and old.key == pytest.approx(math.sqrt(2.0))
+    assert not improves(Score({"records": 0.5, "loco": 1.99}), old, 0.02)  # the second barely moves
+    assert not improves(Score({"records": 0.99, "loco": 1.0}), old, 0.02)  # the first barely moves
+    assert improves(Score({"records": 0.97, "loco": 1.9}), old, 0.02)
+    assert within(Score({"records": 1.005, "loco": 2.01}), old, 0.01)
+    assert not within(Score({"records": 0.5, "loco": 2.1}), old, 0.01)
+    assert improves(Score({"records": 0.9}), Score({"records": 1.0}), 0.02) and not improves(0.99, 1.0, 0.02)
+    assert pickle.loads(pickle.dumps(old)).parts == old.parts  # crosses a process pool (the test bed's workers)
+    assert json.loads(json.dumps({"v": old})) == {"v": 1.0}
+
+
+def test_both_scores_the_validation_records_and_the_training_groups_left_out_each_on_its_own():
+    records = _records()
+    val = _records((0.25,), seed=1)
+    fit = polish(_model(0.3), records, SIM, 25, 10.0)
+    s = Validation("both", records, val, lm_steps=25, box_factor=10.0)(fit.model, SIM)
+    assert list(s.parts) == ["records", "loco"]
+    assert s.parts["records"] == pytest.approx(float(Validation("records", records, val, lm_steps=25,
+                                                                box_factor=10.0)(fit.model, SIM)), rel=1e-12)
+    assert s.parts["loco"] == pytest.approx(_loco_by_least_squares(records), rel=1e-3)  # without the val record
+    assert float(s) == s.parts["records"]
+
+
+def test_with_both_a_trend_the_validation_records_cannot_see_is_not_accepted():
+    """The validation record sits at the training pressures' mean, where the constant fit predicts as well as
+    the trend: leave-one-condition-out alone accepts the trend, ``both`` does not (its validation part does
+    not fall), and says so part by part."""
+    records = _records((0.1, 0.15, 0.2, 0.3, 0.4))
+    mean_p = float(np.mean([r.conditions["pressure_mpa"] for r in records]))
+    val = _records((mean_p,), seed=3)
+    results = {kind: discover(records + val, _model(0.3), candidates=["coulomb"],
+                              split={"val": {"pressure_mpa": [mean_p]}}, validation=kind, max_steps=1,
+                              fit_nominal=False, backend="reference", progress=False)
+               for kind in ("loco", "both")}
+    runs = {kind: res.report for kind, res in results.items()}
+    assert [s["effect"] for s in runs["loco"]["steps"]] == ["trends~pressure_mpa"]
+    both = runs["both"]
+    assert not any(s["effect"].startswith("trends") for s in both["steps"])
+    ev = next(s for s in both["rejected"] if s["effect"] == "trends~pressure_mpa")["evidence"]
+    assert ev["parts_after"]["loco"] < 0.5 * ev["parts_before"]["loco"]  # left out, the trend carries
+    assert ev["parts_after"]["records"] > 0.98 * ev["parts_before"]["records"]  # here it changes nothing
+    assert "each on its own" in both["validation"]["on"] and set(both["validation"]["parts_after"]) == {
+        "records", "loco"}
+    # the terminal summary and the report give both errors
+    lines = summary_lines(both, "N", "/tmp/run")
+    loco = both["validation"]["parts_after"]["loco"]
+    assert any(line.startswith("  leave-one-condition-out RMSE") and f"{loco:.4g}" in line for line in lines)
+    text = report_markdown(results["both"], "t", "N")
+    assert "a change must lower both by the margin" in text and "and the leave-one-condition-out RMSE" in text

@@ -67,15 +67,22 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     u = f" {unit}" if unit else ""
     added = [name(s) for s in report.get("steps") or [] if s.get("accepted", True)]
     removed = [str(s["effect"]) for s in report.get("removed") or []]
-    rejected = [name(s) for s in report.get("rejected") or []]
+    rejected = [name(s) for s in report.get("rejected") or [] if s.get("kind") != "trend"]
     line = "discovery: added " + ("; ".join(added) if added else "nothing")
     line += f"; removed {', '.join(removed)}" if removed else ""
     line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""
     lines = [line]
+    if report.get("stopped") == "max_steps":
+        n = report.get("settings", {}).get("max_steps")
+        lines.append(f"  stopped at the cap on effects added (discover.max_steps={n}), not by the acceptance rule: "
+                     "raise it to let the loop go on")
     b, a = report["before"], report["after"]
     v = report.get("validation") or {}
     if v.get("kind") == "loco":
         lines.append(f"  leave-one-condition-out RMSE {fmt(v['rmse_before'])} -> {fmt(v['rmse_after'])}{u}")
+    elif "loco" in (v.get("parts_after") or {}):
+        lines.append(f"  leave-one-condition-out RMSE {fmt(v['parts_before']['loco'])} -> "
+                     f"{fmt(v['parts_after']['loco'])}{u}")
     for key, what in (("val_rmse", "validation"), ("test_rmse", "test"), ("train_rmse", "training")):
         if b.get(key) is not None or a.get(key) is not None:
             lines.append(f"  {what} RMSE {fmt(b.get(key))} -> {fmt(a.get(key))}{u}")

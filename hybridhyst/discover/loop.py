@@ -33,7 +33,7 @@ from .fitting import fit_candidate, polish, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
-from .validation import Validation, predict, record_metrics, rmse_on
+from .validation import Validation, improves, parts, predict, record_metrics, rmse_on, within
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
 
@@ -107,9 +107,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     label_conditions : conditions shown in per-condition labels (default: all).
     margin : relative fall of the validation RMSE (training RMSE without validation records) required.
     validation : what that RMSE is (``validation.py``): "records", the validation records' error (the training
-        records' without any); or "loco", leave one operating condition out: each group of training records
+        records' without any); "loco", leave one operating condition out: each group of training records
         that share their conditions predicted by the model refitted on the others, pooled with the
-        validation records' error (a refit per training operating point for every model scored).
+        validation records' error (a refit per training operating point for every model scored); or "both",
+        the validation records' error and the training groups' leave-one-out error, each of which must fall
+        by the margin (``validation.Score``; the report gives both as ``parts_*``).
     criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
     top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
@@ -193,9 +195,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         t_fit, chosen = res
         t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
             t_fit.sse, n_train, t_fit.k, criterion)
-        accepted = t_val < (1 - margin) * val_rmse and t_ic < ic
+        accepted = improves(t_val, val_rmse, margin) and t_ic < ic
         entry = {"effect": f"trends~{cond}", "kind": "trend", "description": f"parameters as functions of {cond}",
                  "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
+                                                **parts(before=val_rmse, after=t_val),
                                                 f"{criterion}_before": ic, f"{criterion}_after": t_ic},
                  "parameters": _parameters(t_fit.model), "train_rmse": math.sqrt(t_fit.sse / n_train),
                  "val_rmse": t_val if score.out_of_sample else None, "accepted": accepted,
@@ -203,6 +206,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         (steps if accepted else rejected).append(entry)
         if accepted:
             fit, ic, val_rmse = t_fit, t_ic, t_val
+    stopped = "rule"  # the best candidate was not accepted, or none was left
     for _step in range(int(max_steps)):
         cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
         if not cands:
@@ -224,19 +228,20 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             break
         # the lowest validation error; among candidates validation cannot tell apart (within the margin),
         # the lowest information criterion (the most parsimonious explanation)
-        best_val = min(f[2] for f in finals)
-        close = [f for f in finals if f[2] <= (1 + margin) * best_val]
+        best_val = min((f[2] for f in finals), key=lambda v: v.key)
+        close = [f for f in finals if within(f[2], best_val, margin)]
         cand, c_fit, f_val = min(close, key=lambda f: information_criterion(f[1].sse, n_train, f[1].k, criterion))
         f_ic = information_criterion(c_fit.sse, n_train, c_fit.k, criterion)
         ic_ref = information_criterion(ref[c_fit.substeps], n_train, fit.k, criterion)  # at the same resolution
-        accepted = f_val < (1 - margin) * val_rmse and f_ic < min(ic, ic_ref)
+        accepted = improves(f_val, val_rmse, margin) and f_ic < min(ic, ic_ref)
         entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,
                  "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
                               "val_rmse_before": val_rmse, "val_rmse_after": f_val,
+                              **parts(before=val_rmse, after=f_val),
                               f"{criterion}_before": ic, f"{criterion}_after": f_ic,
                               "refitted": [f[0].name for f in finals],
                               "compared": {f[0].name: {"val_rmse": f[2], "criterion": information_criterion(
-                                  f[1].sse, n_train, f[1].k, criterion)} for f in finals}},
+                                  f[1].sse, n_train, f[1].k, criterion), **parts(val=f[2])} for f in finals}},
                  "parameters": _parameters(c_fit.model),
                  "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
                  "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,
@@ -255,6 +260,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             g["after_step"] = len(steps)
             tried.add(g["effect"])  # a removed or replaced effect is not offered again
         removed += gone
+    else:  # every step accepted an effect: the cap ended the loop, not the rule
+        stopped = "max_steps"
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None
@@ -289,7 +296,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
                   "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
                   "parameters": _parameters(model), "diagnostics": diag_after},
-        "steps": steps, "rejected": rejected, "removed": removed,
+        "steps": steps, "rejected": rejected, "removed": removed, "stopped": stopped,
         "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
                     "added": [e for e in final_effects if e not in nominal_effects],
                     "dropped": sorted(nominal_effects - set(final_effects))},
@@ -305,7 +312,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                      "substeps_final": final_sim["substeps"],
                      "leftover": leftover, "validation": validation,
                      "refit": bool(refit and val)},
-        "validation": {"kind": validation, "on": score.scored, "rmse_before": val_rmse0, "rmse_after": val_rmse},
+        "validation": {"kind": validation, "on": score.scored, "rmse_before": val_rmse0, "rmse_after": val_rmse,
+                       **parts(before=val_rmse0, after=val_rmse)},
         "refit": refitted,
         "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
         "wall_s": time.perf_counter() - start,

@@ -73,7 +73,19 @@ def loops_figure(result: DiscoveryResult, path: Path, limit: int = 6) -> Path:
 
 
 def _ic(ev: dict, when: str):
-    return next((v for k, v in ev.items() if k.endswith(f"_{when}") and not k.startswith("val")), None)
+    return next((ev[f"{c}_{when}"] for c in ("bic", "aic") if f"{c}_{when}" in ev), None)
+
+
+def _other_parts(ev: dict, unit: str, arrow: bool = False) -> str:
+    """The errors besides the headline one that a change was judged on (``validation: both``), in words."""
+    b, a = ev.get("parts_before") or {}, ev.get("parts_after") or {}
+    change = "{} → {}" if arrow else "from {} to {}"
+    return "".join(f" and the {_named(k)} RMSE " + change.format(_fmt(v), _fmt(a.get(k))) + f" {unit}"
+                   for k, v in list(b.items())[1:])
+
+
+def _named(part: str) -> str:
+    return "leave-one-condition-out" if part == "loco" else part
 
 
 def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validation") -> str:
@@ -82,7 +94,8 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
     ev = step["evidence"]
     fall = (1 - ev["val_rmse_after"] / ev["val_rmse_before"]) * 100 if ev["val_rmse_before"] else math.nan
     tail = (f"the {scored} RMSE from {_fmt(ev['val_rmse_before'])} to {_fmt(ev['val_rmse_after'])} {unit} "
-            f"({_fmt(fall)} %), and the information criterion from {_fmt(_ic(ev, 'before'))} to "
+            f"({_fmt(fall)} %){_other_parts(ev, unit)}, and the information criterion from "
+            f"{_fmt(_ic(ev, 'before'))} to "
             f"{_fmt(_ic(ev, 'after'))}.")
     if step["kind"] == "trend":
         trends = ", ".join(f"{k}: {v}" for k, v in step.get("trends", {}).items())
@@ -92,7 +105,11 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
                     for k, v in step.get("new_coordinates", {}).items())
     kind = "effect" if step["kind"] == "effect" else "parameter function"
     compared = ev.get("compared") or {}
-    others = "; ".join(f"{name} {_fmt(c['val_rmse'])} {unit} (criterion {_fmt(c['criterion'])})"
+
+    def also(c):  # the other errors a compared candidate was scored on (``validation: both``)
+        return "".join(f", {_named(k)} {_fmt(v)} {unit}" for k, v in list((c.get("parts_val") or {}).items())[1:])
+
+    others = "; ".join(f"{name} {_fmt(c['val_rmse'])} {unit}{also(c)} (criterion {_fmt(c['criterion'])})"
                        for name, c in compared.items() if name != step["effect"])
     why = (f" Refitted beside it, {scored} RMSE: {others}; of these the lowest is taken, or among "
            f"those within the margin of it the lowest information criterion.") if others else ""
@@ -125,22 +142,30 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     if kind == "loco":
         lines += [f"The acceptance rule's RMSE is {r['validation']['on']}: each operating point's records predicted "
                   "by the model refitted on the others (`validation: loco`).", ""]
+    elif kind == "both" and len(r["validation"].get("parts_after") or {}) > 1:
+        lines += [f"The acceptance rule judges {r['validation']['on']} (each operating point's records predicted by "
+                  "the model refitted on the others): a change must lower both by the margin (`validation: "
+                  "both`).", ""]
     elif not r["records"]["val"]:
         lines += ["No validation records: the acceptance rule's RMSE is the training records'.", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):
         change = (f"replaced by its special case {' + '.join(g['by'])}" if g.get("by") else
                   "removed: its contribution vanished")
-        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored} RMSE "
-                  f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}, and the information "
-                  "criterion fell).", ""]
-    if r["rejected"]:
-        s = r["rejected"][0]
+        moved = f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}{_other_parts(g, unit, True)}"
+        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored} RMSE {moved}, and "
+                  "the information criterion fell).", ""]
+    if r.get("stopped") == "max_steps":
+        lines += [f"The loop stopped at its cap on effects added (`discover.max_steps` = "
+                  f"{r['settings']['max_steps']}), not by the acceptance rule: more may be found with a higher cap.",
+                  ""]
+    for s in r["rejected"]:
         ev = s["evidence"]
-        lines += [f"The loop stopped at the best remaining candidate, **{s['effect']}**: {scored} RMSE "
-                  f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit} (margin "
-                  f"{r['settings']['margin']:.0%} required) and the information criterion "
-                  f"{_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
+        moved = f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit}{_other_parts(ev, unit, True)}"
+        what = (f"The condition trends, **{s['effect']}**, were not taken" if s["kind"] == "trend" else
+                f"The loop stopped at the best remaining candidate, **{s['effect']}**")
+        lines += [f"{what}: {scored} RMSE {moved} (margin {r['settings']['margin']:.0%} required) and the "
+                  f"information criterion {_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
     u = r["unexplained"]
     dep = sorted(u["dependence"].items(), key=lambda kv: -kv[1])[:4]
     lines += ["## What is left", "",

@@ -10,6 +10,7 @@ import math
 
 from .candidates import Candidate, effect_candidates
 from .fitting import Fit, at, fit_candidate, polish
+from .validation import parts, within
 
 __all__ = ["combined", "information_criterion", "simplify"]
 
@@ -75,13 +76,14 @@ def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, p
                 if not f_ic < ic or (best is not None and f_ic >= best[2]):
                     continue
                 f_val = score(f.model, at(sim, f))
-                if f_val <= (1 + opts["margin"] / 2) * val_rmse:
+                if within(f_val, val_rmse, opts["margin"] / 2):
                     best = (key, by, f_ic, f_val, f)
         if best is None:
             break
         key, by, ic, new_val, f = best
         changes.append({"effect": fit.model.effects[key].name, "key": key, "kind": "replaced" if by else "removed",
                         "by": list(by), "val_rmse_before": val_rmse, "val_rmse_after": new_val,
+                        **parts(before=val_rmse, after=new_val),
                         "train_rmse": math.sqrt(f.sse / n_train)})
         fit, val_rmse = f, new_val
     return fit, ic, val_rmse, changes

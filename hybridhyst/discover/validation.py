@@ -1,6 +1,6 @@
 """The loop's out-of-sample error of a fitted model: what every acceptance, comparison and removal is judged on.
 
-Two ways (``discover(validation=...)``):
+Three ways (``discover(validation=...)``):
 
 - ``"records"``: the RMSE on the validation records (on the training records when there are none). One
   simulation per model; the validation records are of whatever kind the user holds out, often the same
@@ -12,6 +12,16 @@ Two ways (``discover(validation=...)``):
   and the validation records' residuals under the model fitted on all training records. A parameter made a
   function of a condition must then predict a level it was not fitted on, and an effect must carry over
   to an operating point it did not see; costs one refit per group for each model scored.
+- ``"both"``: the two errors side by side, each judged on its own (``Score``): the validation records' RMSE
+  and the leave-one-condition-out RMSE of the training groups alone. A change must lower *both* by the
+  margin to be accepted, and may raise neither by more than the tolerance to be a removal. Each error
+  alone has its failure mode: validation records of the training records' kind reward what those records
+  share (an offset of one campaign), and a model refitted without one operating point is a poorer
+  predictor whose refits a flexible term can steady. An effect must help on both.
+
+Every score is a ``Score``: a float (the validation records' RMSE, or for ``"loco"`` the pooled
+leave-one-out RMSE) that carries every error it stands for in ``parts``; ``improves`` and ``within`` compare
+two scores part by part.
 """
 
 from __future__ import annotations
@@ -28,9 +38,51 @@ from ..data.records import Record
 from ..simulate import simulate
 from .fitting import polish
 
-__all__ = ["VALIDATION", "Validation", "condition_groups", "predict", "record_metrics", "rmse_on"]
+__all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "improves", "parts", "predict", "record_metrics",
+           "rmse_on", "within"]
 
-VALIDATION = ("records", "loco")
+VALIDATION = ("records", "loco", "both")
+
+
+class Score(float):
+    """An out-of-sample RMSE that may stand for several (``parts``: ``{name: RMSE}``, the first is the value)."""
+
+    def __new__(cls, parts: dict[str, float]):
+        parts = {k: (float(v) if math.isfinite(float(v)) else math.inf) for k, v in parts.items()}
+        self = super().__new__(cls, next(iter(parts.values())))
+        self.parts = parts
+        return self
+
+    def __reduce__(self):
+        return Score, (self.parts,)
+
+    @property
+    def key(self) -> float:
+        """One number to rank scores by: the geometric mean of the parts."""
+        vals = list(self.parts.values())
+        if any(v == math.inf for v in vals):
+            return math.inf
+        return math.exp(sum(math.log(v) if v > 0 else -math.inf for v in vals) / len(vals))
+
+
+def _parts(score) -> list[float]:
+    return list(score.parts.values()) if isinstance(score, Score) else [float(score)]
+
+
+def parts(**scores) -> dict:
+    """``{"parts_<name>": {error: RMSE}}`` for each score that stands for several errors (for the report);
+    nothing for a score of one."""
+    return {f"parts_{k}": dict(v.parts) for k, v in scores.items() if len(getattr(v, "parts", ())) > 1}
+
+
+def improves(new, old, margin: float) -> bool:
+    """Whether ``new`` is below ``(1 - margin)`` times ``old`` in every part."""
+    return all(n < (1 - margin) * o for n, o in zip(_parts(new), _parts(old), strict=True))
+
+
+def within(new, old, tol: float) -> bool:
+    """Whether ``new`` is at most ``(1 + tol)`` times ``old`` in every part."""
+    return all(n <= (1 + tol) * o for n, o in zip(_parts(new), _parts(old), strict=True))
 
 
 def predict(model, records, sim: dict) -> list[np.ndarray]:
@@ -69,10 +121,10 @@ def condition_groups(records: Sequence[Record]) -> list[list[Record]]:
 
 
 class Validation:
-    """``score(model, sim) -> RMSE`` out of sample, by ``kind`` (``VALIDATION``; module docstring).
+    """``score(model, sim) -> Score`` out of sample, by ``kind`` (``VALIDATION``; module docstring).
 
-    Raises ``ValueError`` for an unknown kind, and for ``"loco"`` when the training records hold fewer than
-    two operating points (nothing to leave out)."""
+    Raises ``ValueError`` for an unknown kind, and for ``"loco"`` when the training records hold fewer than two
+    operating points (nothing to leave out); ``"both"`` is then ``"records"``, and says so in ``scored``."""
 
     def __init__(self, kind: str, train: Sequence[Record], val: Sequence[Record], *, lm_steps: int,
                  box_factor: float):
@@ -80,9 +132,11 @@ class Validation:
             raise ValueError(f"unknown validation {kind!r}; choose one of {list(VALIDATION)}")
         self.kind, self.train, self.val = kind, list(train), list(val)
         self.lm_steps, self.box_factor = lm_steps, box_factor
-        self.groups = condition_groups(self.train) if kind == "loco" else []
-        if kind == "loco" and len(self.groups) < 2:
-            raise ValueError("validation 'loco' leaves one operating condition of the training records out at a "
+        self.groups = condition_groups(self.train) if kind != "records" else []
+        if kind == "both" and len(self.groups) < 2:  # nothing to leave out: the validation records judge alone
+            self.groups = []
+        elif kind == "loco" and len(self.groups) < 2:
+            raise ValueError(f"validation {kind!r} leaves one operating condition of the training records out at a "
                              f"time, but all {len(self.train)} training records share one; use "
                              "validation 'records' (the validation records' error)")
 
@@ -90,20 +144,30 @@ class Validation:
     def out_of_sample(self) -> bool:
         """Whether the score is out of sample (validation records, or leave-one-condition-out), not the
         training error."""
-        return bool(self.val) or self.kind == "loco"
+        return bool(self.val) or bool(self.groups)
 
     @property
     def scored(self) -> str:
         """Which error the score is, in words (for the report)."""
+        loco = f"leave-one-condition-out over {len(self.groups)} training operating points"
+        records = "the validation records" if self.val else "the training records (no validation records)"
         if self.kind == "loco":
-            what = f"leave-one-condition-out over {len(self.groups)} training operating points"
-            return what + (" and the validation records" if self.val else "")
-        return "the validation records" if self.val else "the training records (no validation records)"
+            return loco + (" and the validation records" if self.val else "")
+        if self.kind == "records" or not self.groups:
+            return records + (" (one training operating point: nothing to leave out)" if self.kind == "both" else "")
+        return f"{records} and, each on its own, {loco}"
 
-    def __call__(self, model, sim: dict) -> float:
-        if self.kind == "records":
-            return rmse_on(model, self.val or self.train, sim)
-        records, preds = list(self.val), predict(model, self.val, sim)
+    def __call__(self, model, sim: dict) -> Score:
+        if self.kind == "records" or (self.kind == "both" and not self.groups):
+            return Score({"records": rmse_on(model, self.val or self.train, sim)})
+        if self.kind == "loco":
+            return Score({"loco": self._loco(model, sim, list(self.val))})
+        return Score({"records": rmse_on(model, self.val or self.train, sim), "loco": self._loco(model, sim, [])})
+
+    def _loco(self, model, sim: dict, val: list) -> float:
+        """The pooled RMSE of each training group predicted by the model refitted on the others, and of ``val``
+        predicted by the model itself."""
+        records, preds = list(val), predict(model, val, sim)
         for i, out in enumerate(self.groups):
             rest = [r for j, g in enumerate(self.groups) if j != i for r in g]
             try:
