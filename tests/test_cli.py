@@ -247,9 +247,15 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
     ("discover", "split.select=[{tension_lb: 30}]",
      "split.select holds a mapping; to give a list instead, delete the key first: '~split.select' '+split.select="),
     ("discover", "data=brfdd", "options of 'data': boucwen, brfd, table, vpptd"),
+    # table's split.select is null: Hydra calls it missing
+    ("fit", ("data=table", "~split.select"),
+     "(or it is null: nothing to delete); to change it, drop '~split.select' and give split.select=<value> instead"),
+    # a deleted key: only a key the command line added is offered as its misspelling (not discover.lm_steps)
+    ("discover", "~discover.max_steps", "config key discover.max_steps is missing (deleted or misspelt); restore"),
+    ("discover", ("~discover.max_steps", "+discover.max_step=6"), "is discover.max_step a misspelling of it?"),
 ])
 def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expected, tmp_path):
-    proc = _cli(f"hybridhyst.cli.{app}", tmp_path, override)
+    proc = _cli(f"hybridhyst.cli.{app}", tmp_path, *([override] if isinstance(override, str) else override))
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert lines[0].startswith("error: ") and expected in lines[0], lines[0]

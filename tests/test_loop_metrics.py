@@ -99,3 +99,14 @@ def test_fit_trend_recovers_seed002_exponentials(kind, coef):
     assert fit(p) == pytest.approx(y, rel=1e-6)
     with pytest.raises(ValueError, match="unknown trend kind"):
         fit_trend(p, y, "linear")
+
+
+def test_r2_is_undefined_for_a_constant_target_without_a_warning():
+    import warnings
+
+    from hybridhyst.analysis.metrics import r2
+
+    assert r2([1.0, 2.0, 3.0], [1.0, 2.0, 4.0]) == pytest.approx(1 - 1 / (14 / 3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # per-level estimates that all sit at one value (a box edge)
+        assert math.isnan(r2([1.0, 1.0], [2.0, 2.0]))

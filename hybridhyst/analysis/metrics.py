@@ -39,9 +39,11 @@ def nrmse(pred, target) -> float:
 
 
 def r2(pred, target) -> float:
-    """Coefficient of determination 1 − SS_res / SS_tot."""
+    """Coefficient of determination 1 − SS_res / SS_tot; NaN (no warning) for a constant target, where it is
+    undefined."""
     p, t = _pair(pred, target)
-    return float(1.0 - np.sum((p - t) ** 2) / np.sum((t - t.mean()) ** 2))
+    ss_tot = float(np.sum((t - t.mean()) ** 2))
+    return float(1.0 - np.sum((p - t) ** 2) / ss_tot) if ss_tot > 0 else math.nan
 
 
 def relative_error(pred, target) -> float:

@@ -188,13 +188,23 @@ def config_error_message(exc: Exception, cfg=None) -> str:
         parent = getattr(exc, "parent_node", None)
         siblings = [str(k) for k in parent.keys()] if parent is not None and hasattr(parent, "keys") else []
         prefix = str(key).rsplit(".", 1)[0] + "." if "." in str(key) else ""
-        leaf = str(key).rsplit(".", 1)[-1]
-        close = difflib.get_close_matches(leaf, siblings, n=1, cutoff=0.6)
-        hint = f"; is {prefix}{close[0]} a misspelling of it? " if close else "; "
+        added = {f"{prefix}{k}" for k in siblings} & _added_keys()  # only a key the user added can be a misspelling
+        close = difflib.get_close_matches(str(key), sorted(added), n=1, cutoff=0.6)
+        hint = f"; is {close[0]} a misspelling of it? " if close else "; "
         none = " (null for none)" if "(null" in _value_hint(str(key), cfg) else ""
         return (f"config key {key} is missing (deleted or misspelt){hint}restore it (drop the '~{key}' override) "
                 f"or set it with '+{key}=<value>'{none}")
     return f"config key {key}: {detail}"
+
+
+def _added_keys() -> set[str]:
+    """The keys the command line added (``+key=value`` overrides of this run; none outside a Hydra run)."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if not HydraConfig.initialized():
+        return set()
+    task = HydraConfig.get().overrides.task
+    return {o.lstrip("+").split("=", 1)[0] for o in task if o.startswith("+")}
 
 
 def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
@@ -232,6 +242,11 @@ def _composition_message(exc: Exception) -> str:
     if options:  # "Available options in 'data':\n\tbrfd\n\t..." -> "options of 'data': brfd, ..."
         group, _, names = options.partition(":")
         message += f"; options of {group.strip()}: {', '.join(n.strip() for n in names.split() if n.strip())}"
+    deleted = re.search(r"Could not delete from config\. '([^']+)' does not exist", message)
+    if deleted:  # Hydra says so for a key that is there but null, too
+        key = deleted.group(1)
+        message += (f" (or it is null: nothing to delete); to change it, drop '~{key}' and give {key}=<value> "
+                    "instead")
     cause = exc.__cause__
     if cause is not None and hasattr(cause, "full_key"):
         message += f" ({' '.join(str(cause).splitlines()[0].split())})"
