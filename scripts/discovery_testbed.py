@@ -59,7 +59,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
     if args.write_readme and args.validation != "records":
-        ap.error("--write-readme writes the table of the library's defaults; run --validation loco with --json")
+        ap.error("--write-readme writes the table of the library's defaults; run the other validations with --json")
     names = args.cases.split(",") if args.cases else list(FAST_CASES) if args.fast else [c.name for c in CASES]
     unknown = [n for n in names if n not in CASE_BY_NAME]
     if unknown:
