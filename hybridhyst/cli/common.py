@@ -188,8 +188,9 @@ def config_error_message(exc: Exception, cfg=None) -> str:
         parent = getattr(exc, "parent_node", None)
         siblings = [str(k) for k in parent.keys()] if parent is not None and hasattr(parent, "keys") else []
         prefix = str(key).rsplit(".", 1)[0] + "." if "." in str(key) else ""
-        added = {f"{prefix}{k}" for k in siblings} & _added_keys()  # only a key the user added can be a misspelling
-        close = difflib.get_close_matches(str(key), sorted(added), n=1, cutoff=0.6)
+        added = _added_keys()  # in a run, only a key the command line added can be the misspelling
+        offered = [f"{prefix}{k}" for k in siblings if added is None or f"{prefix}{k}" in added]
+        close = difflib.get_close_matches(str(key), offered, n=1, cutoff=0.6)
         hint = f"; is {close[0]} a misspelling of it? " if close else "; "
         none = " (null for none)" if "(null" in _value_hint(str(key), cfg) else ""
         return (f"config key {key} is missing (deleted or misspelt){hint}restore it (drop the '~{key}' override) "
@@ -197,12 +198,13 @@ def config_error_message(exc: Exception, cfg=None) -> str:
     return f"config key {key}: {detail}"
 
 
-def _added_keys() -> set[str]:
-    """The keys the command line added (``+key=value`` overrides of this run; none outside a Hydra run)."""
+def _added_keys() -> set[str] | None:
+    """The keys the command line added (``+key=value`` overrides of this run); None outside a Hydra run (a
+    config composed by the compose API), where every sibling may be the misspelling."""
     from hydra.core.hydra_config import HydraConfig
 
     if not HydraConfig.initialized():
-        return set()
+        return None
     task = HydraConfig.get().overrides.task
     return {o.lstrip("+").split("=", 1)[0] for o in task if o.startswith("+")}
 
