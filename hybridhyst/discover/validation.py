@@ -60,12 +60,10 @@ class Score(float):
     def key(self) -> float:
         """One number to rank scores by: the geometric mean of the parts."""
         vals = list(self.parts.values())
-        if any(v == math.inf for v in vals):
-            return math.inf
-        return math.exp(sum(math.log(v) if v > 0 else -math.inf for v in vals) / len(vals))
+        return math.inf if math.inf in vals else math.prod(vals) ** (1 / len(vals))  # one part: the value itself
 
 
-def _parts(score) -> list[float]:
+def _errors(score) -> list[float]:
     return list(score.parts.values()) if isinstance(score, Score) else [float(score)]
 
 
@@ -77,12 +75,12 @@ def parts(**scores) -> dict:
 
 def improves(new, old, margin: float) -> bool:
     """Whether ``new`` is below ``(1 - margin)`` times ``old`` in every part."""
-    return all(n < (1 - margin) * o for n, o in zip(_parts(new), _parts(old), strict=True))
+    return all(n < (1 - margin) * o for n, o in zip(_errors(new), _errors(old), strict=True))
 
 
 def within(new, old, tol: float) -> bool:
     """Whether ``new`` is at most ``(1 + tol)`` times ``old`` in every part."""
-    return all(n <= (1 + tol) * o for n, o in zip(_parts(new), _parts(old), strict=True))
+    return all(n <= (1 + tol) * o for n, o in zip(_errors(new), _errors(old), strict=True))
 
 
 def predict(model, records, sim: dict) -> list[np.ndarray]:
@@ -158,11 +156,10 @@ class Validation:
         return f"{records} and, each on its own, {loco}"
 
     def __call__(self, model, sim: dict) -> Score:
-        if self.kind == "records" or (self.kind == "both" and not self.groups):
-            return Score({"records": rmse_on(model, self.val or self.train, sim)})
         if self.kind == "loco":
             return Score({"loco": self._loco(model, sim, list(self.val))})
-        return Score({"records": rmse_on(model, self.val or self.train, sim), "loco": self._loco(model, sim, [])})
+        records = {"records": rmse_on(model, self.val or self.train, sim)}  # "both" has groups unless it fell back
+        return Score({**records, "loco": self._loco(model, sim, [])} if self.groups else records)
 
     def _loco(self, model, sim: dict, val: list) -> float:
         """The pooled RMSE of each training group predicted by the model refitted on the others, and of ``val``
