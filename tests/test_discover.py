@@ -366,3 +366,30 @@ def test_the_chosen_structure_is_refitted_on_training_and_validation_records(flo
         pred = simulate(refitted.model, [test])[0][:, 0].numpy()
     assert math.sqrt(np.mean((pred - test.y) ** 2)) == pytest.approx(b["after"]["test_rmse"], rel=1e-6)
     np.testing.assert_allclose(refitted.predictions["after"]["test"][0], pred, rtol=1e-9, atol=1e-12)
+
+
+def test_an_effect_whose_level_depends_on_the_condition_gets_its_trend_after_it_is_added(float64):
+    """Numpy data, F = k x + c(p) ẋ + Fc(p) sign ẋ (exact sign), both c and Fc linear in the pressure, 6
+    training pressures, 2 held out (one beyond them). The nominal lacks the friction: its c gets its trend in
+    the first trend step, the Coulomb level (added as an effect, constant) gets its own in the trend step
+    after the effects, and the held-out error reaches the noise."""
+    rng = np.random.default_rng(7)
+    noise, records = 0.02, []
+    for i, p in enumerate((0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09)):
+        t = np.arange(0.0, 2.0, 1 / 200)
+        x = 0.6 * np.sin(2 * np.pi * t + 0.4 * i)
+        v = 0.6 * 2 * np.pi * np.cos(2 * np.pi * t + 0.4 * i)
+        y = 2.0 * x + (0.1 + 4.0 * p) * v + (0.2 + 10.0 * p) * np.sign(v) + noise * rng.standard_normal(len(t))
+        records.append(Record(f"p{p}", t, x, y, conditions={"pressure_mpa": p}))
+    from hybridhyst.physics.effects import LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+
+    nominal = Constitutive({"spring": LinearStiffness(k=1.5), "viscous": Viscous(c=0.3)}).double()
+    res = discover(RecordSet(records), nominal, candidates=["coulomb"], noise_sd=noise, fit_nominal=False,
+                   split={"held_out": {"pressure_mpa": [0.05, 0.09]}}, max_steps=1, progress=False)
+    rep = res.report
+    steps = [(s["effect"], s.get("when")) for s in rep["steps"]]
+    assert steps == [("trends~pressure_mpa", "before effects"), ("coulomb", None),
+                     ("trends~pressure_mpa", "after effects")]
+    assert rep["steps"][2]["trends"] == {"coulomb.Fc": "linear"}
+    assert rep["after"]["test_rmse"] <= 1.2 * noise < rep["steps"][1]["test_rmse"]

@@ -185,18 +185,25 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     from ..physics.models import DrivenOscillator
 
     scales = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
-    # conditions with enough levels get their trends in one step (every parameter at once); the others keep
-    # the one-parameter-at-a-time candidates
-    for cond in [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]:
-        res = fit_trends(fit, train, sim, cond, lm_steps, box_factor)
+    # conditions with enough levels get their trends in one step (every constant parameter at once), before the
+    # effects and again after them for the parameters the effects brought; the others keep the
+    # one-parameter-at-a-time candidates
+    trend_conditions = [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]
+    for cond in trend_conditions:
         cond_values.pop(cond)
+
+    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> None:
+        nonlocal fit, ic, val_rmse
+        res = fit_trends(fit, train, sim, cond, lm_steps, box_factor, effects)
         if res is None:
-            continue
+            return
         t_fit, chosen = res
         t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
             t_fit.sse, n_train, t_fit.k, criterion)
         accepted = improves(t_val, val_rmse, margin) and t_ic < ic
-        entry = {"effect": f"trends~{cond}", "kind": "trend", "description": f"parameters as functions of {cond}",
+        entry = {"effect": f"trends~{cond}", "kind": "trend", "when": when,
+                 "description": f"parameters as functions of {cond}" + (
+                     " (those of the effects added)" if when == "after effects" else ""),
                  "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
                                                 **parts(before=val_rmse, after=t_val),
                                                 f"{criterion}_before": ic, f"{criterion}_after": t_ic},
@@ -206,6 +213,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         (steps if accepted else rejected).append(entry)
         if accepted:
             fit, ic, val_rmse = t_fit, t_ic, t_val
+
+    for cond in trend_conditions:
+        try_trends(cond, "before effects")
     stopped = "rule"  # the best candidate was not accepted, or none was left
     for _step in range(int(max_steps)):
         cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
@@ -262,6 +272,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         removed += gone
     else:  # every step accepted an effect: the cap ended the loop, not the rule
         stopped = "max_steps"
+    added_keys = set(fit.model.effects) - set(initial.effects)
+    if added_keys:  # the added effects' own parameters may depend on the condition (the nominal's had their turn)
+        for cond in trend_conditions:
+            try_trends(cond, "after effects", added_keys)
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None

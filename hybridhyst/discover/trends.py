@@ -1,9 +1,11 @@
-"""Dependence of the nominal's parameters on an operating condition, chosen in one step.
+"""Dependence of a model's parameters on an operating condition, chosen in one step.
 
 Instead of making one parameter at a time a function of the condition (each competing with the effects for
 a step), every constant parameter is first identified per condition level (``PerCondition``, one joint fit),
 then each parameter's values across the levels choose their own trend — constant, linear or one of seed 002's
-exponential forms — by the corrected AIC over the levels, and the model with those trends is refitted.
+exponential forms — by the corrected AIC over the levels, and the model with those trends is refitted. The loop
+offers this step before the effects (every constant parameter) and again after them, for the parameters of the
+effects it added (``effects``).
 """
 
 from __future__ import annotations
@@ -61,13 +63,15 @@ def _free_constants(model):
             if isinstance(fn, Constant)]
 
 
-def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_factor: float):
-    """Per-condition identification of every constant parameter, then a trend per parameter; returns
-    ``(Fit of the model with trends, {"effect.param": trend})`` or None (fewer than ``MIN_LEVELS`` levels, or
-    no constant parameter)."""
+def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_factor: float,
+               effects: set[str] | None = None):
+    """Per-condition identification of every constant parameter (of the effects keyed in ``effects`` only, less
+    their sign-smoothing widths, when given), then a trend per parameter; returns ``(Fit of the model with
+    trends, {"effect.param": trend})`` or None (fewer than ``MIN_LEVELS`` levels, or no constant parameter)."""
     values = [float(r.conditions[condition]) for r in train]
     levels = sorted(set(values))
-    params = _free_constants(fit.model)
+    params = [(key, pname) for key, pname in _free_constants(fit.model)
+              if effects is None or (key in effects and not fit.model.effects[key].param_specs[pname].smoothing)]
     if len(levels) < MIN_LEVELS or not params:
         return None
     per = fit.model.with_effects(dict(fit.model.effects.items()))

@@ -24,10 +24,12 @@ strictly positive and spans more than a factor 3 are searched on a log scale.
 Trends not yet known (``trend_scale``, the one rule of identification and the discovery loop): a polynomial's
 coefficient of c^i that starts at 0 gets ``± factor · |c0| / Δ_i`` instead of (-1, 1), where Δ_i is how much
 c^i changes over the data's range of the condition (``condition_ranges``, from the records): a coefficient at
-the edge changes the parameter by ``factor`` × its value across the data. When every higher coefficient starts
-at 0, the constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the half-width of
-c^i's box, the user's where given), so that the value at the data's conditions can stay put while the trend
-moves (the intercept of a steep line lies far from the value).
+the edge changes the parameter by ``factor`` × its value across the data. A polynomial's constant term gets
+``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the half-width of c^i's box, the user's where
+given), so that the value at the data's conditions can stay put while the trend moves: the intercept of a
+steep line lies far from the value, and its sign is not the parameter's (a damping that grows with pressure
+from a negative extrapolated intercept). A ``(c0 / 10, 10 c0)`` box kept it from crossing zero, and a trend
+added to a fitted model could not be refitted to the data (``tests/test_discover.py``).
 """
 
 from __future__ import annotations
@@ -150,8 +152,8 @@ def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
 def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float, ranges,
                  given: Mapping[int, tuple[float, float]]) -> dict[int, tuple[float, float]]:
     """``{position: box}`` for the coefficients of a polynomial that start at 0 (trends not yet known; module
-    docstring) and, when every higher coefficient does, for its constant term, whose reach follows the
-    higher coefficients' boxes (``given``: the user's, where set); {} for other functions."""
+    docstring) and for its constant term, whose reach follows the higher coefficients' boxes (``given``: the
+    user's, where set); {} for other functions."""
     rng = (ranges or {}).get(condition)
     c0 = next((i for i, co in enumerate(declared) if not co.power), None)
     if rng is None or c0 is None or not any(co.power for co in declared):
@@ -161,11 +163,11 @@ def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, fact
         scale = trend_scale(declared[c0].value, co.power, *rng) if co.power and co.value == 0.0 else None
         if scale is not None:
             boxes[i] = (-factor * scale, factor * scale)
-    if boxes and all(co.value == 0.0 for co in declared if co.power):  # every higher one has a box
-        top = max(abs(rng[0]), abs(rng[1]))
-        reach = factor * abs(declared[c0].value) + sum(max(abs(b) for b in given.get(i, box)) * top ** declared[i].power
-                                                       for i, box in boxes.items())
-        boxes[c0] = (declared[c0].value - reach, declared[c0].value + reach)
+    top = max(abs(rng[0]), abs(rng[1]))
+    halves = {i: max(abs(b) for b in given.get(i, boxes.get(i, _box(co.value, factor))))
+              for i, co in enumerate(declared) if co.power}
+    reach = factor * abs(declared[c0].value) + sum(h * top ** declared[i].power for i, h in halves.items())
+    boxes[c0] = (declared[c0].value - reach, declared[c0].value + reach)
     return boxes
 
 

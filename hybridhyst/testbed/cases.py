@@ -7,8 +7,9 @@ Every case is a ``Case``; ``CASES`` lists them, ``CASE_BY_NAME`` finds one. Cate
 * ``single``: one library effect family missing from the nominal (each family at least once);
 * ``pair``: two missing;
 * ``condition``: seed 000's VPPTD law M = c φ̇ + k φ + k₂ φ³ + M_s sgn φ̇ (φ in deg, φ̇ in rad/s, M in Nm)
-  with parameters rising with the underpressure (linearly or exponentially) plus one missing effect; the
-  nominal is ``vpptd_algebraic`` with constant parameters;
+  with parameters rising with the underpressure (linearly or exponentially) plus one missing effect (in one
+  case with a level that rises with the underpressure too); the nominal is ``vpptd_algebraic`` with constant
+  parameters;
 * ``clean``: the nominal is the truth's structure: nothing may be added;
 * ``out_of_library``: an effect the library does not have (cogging, friction whose level varies with
   position): nothing may be named, and the loop should flag structure it cannot name.
@@ -345,6 +346,13 @@ def _build_cases() -> list[Case]:
                                      p_linear(9.5, 15.0), tau=0.008, phase=-math.pi / 2, seed=33),
               _vpptd_nominal, VPPTD_SPLIT,
               "c, Ms linear in p (6.7→8.3, 9.5→15); torque channel 8 ms late; starts from rest at −10°", "500"))
+    # the effect's own level depends on the condition: the loop must give the added effect a trend too
+    add(_case("vpptd_linear+stribeck~p", "condition", [{"stribeck"}], [("stribeck.vs", 15.0, 0.25)], 0.2,
+              lambda: vpptd_records("vpptd_linear+stribeck~p", p_const(6.7), p_linear(0.65, 1.65), p_const(0.0055),
+                                     p_linear(9.5, 15.0), stribeck=(p_linear(1.5, 6.0), 15.0), seed=34),
+              _vpptd_nominal, VPPTD_SPLIT,
+              "k, Ms linear in p (0.65→1.65, 9.5→15); Stribeck excess linear in p too (1.5→6 Nm, "
+              "e^{−(φ̇/15°/s)²})", "500"))
     # ---------------------------------------------------------------- clean controls
     add(_case("clean_friction", "clean", [], [], 0.03,
               lambda: _sine_records("clean_friction", STD, static_law(k=2.0, c=0.3, Fc=0.5), spc=100, cycles=2,

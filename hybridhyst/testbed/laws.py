@@ -150,8 +150,9 @@ def vpptd_records(name, c, k, k2, Ms, *, clearance=0.0, stribeck=(0.0, 1.0), tau
                    noise=0.2):
     """±10° at 0.8 Hz, 400 Hz sampling (500 samples per cycle, one cycle), at each underpressure; φ in deg,
     φ̇ in rad/s in the viscous term, torque in Nm; exact sign; optional exact play on the angle (mounting
-    clearance), Stribeck weakening (dFs [Nm], vs [deg/s]) and a delay τ [s] of the measured torque; ``phase``
-    −π/2 starts the test from rest at −10° (what a delayed channel needs: the rig is at rest before t = 0)."""
+    clearance), Stribeck weakening (dFs [Nm], vs [deg/s]; dFs a constant or, like the base parameters, a function
+    of p) and a delay τ [s] of the measured torque; ``phase`` −π/2 starts the test from rest at −10° (what a
+    delayed channel needs: the rig is at rest before t = 0)."""
     from ..data.records import Record, RecordSet
 
     rng = np.random.default_rng(seed)
@@ -160,13 +161,14 @@ def vpptd_records(name, c, k, k2, Ms, *, clearance=0.0, stribeck=(0.0, 1.0), tau
         t = np.arange(501) / 400.0
         sig = g.sine(10.0, 0.8, phase=phase)
         cp, kp, k2p, Mp = c(p), k(p), k2(p), Ms(p)
+        weak = (stribeck[0](p) if callable(stribeck[0]) else stribeck[0], stribeck[1])
         if clearance:
-            law = on_fine(play_law(clearance, kp, cp, Mp, k3=k2p, velocity_scale=RAD, stribeck=stribeck), 20)
+            law = on_fine(play_law(clearance, kp, cp, Mp, k3=k2p, velocity_scale=RAD, stribeck=weak), 20)
         else:
             def law(tt, s, cp=cp, kp=kp, k2p=k2p, Mp=Mp):
                 td = tt - tau
                 x, v = s.x(td), s.v(td)
-                level = Mp + stribeck[0] * np.exp(-((v / stribeck[1]) ** 2))
+                level = Mp + weak[0] * np.exp(-((v / weak[1]) ** 2))
                 return cp * RAD * v + kp * x + k2p * x**3 + level * g.sgn(v, "exact")
         y = law(t, sig) + g.white_noise(len(t), noise, rng)
         out.append(Record(name=f"p{p:.2f}MPa", t=t, x=sig.x(t), y=y, conditions={"pressure_mpa": p},
