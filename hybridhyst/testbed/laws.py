@@ -165,7 +165,7 @@ def vpptd_records(name, c, k, k2, Ms, *, clearance=0.0, stribeck=(0.0, 1.0), tau
         if clearance:
             law = on_fine(play_law(clearance, kp, cp, Mp, k3=k2p, velocity_scale=RAD, stribeck=weak), 20)
         else:
-            def law(tt, s, cp=cp, kp=kp, k2p=k2p, Mp=Mp):
+            def law(tt, s, cp=cp, kp=kp, k2p=k2p, Mp=Mp, weak=weak):
                 td = tt - tau
                 x, v = s.x(td), s.v(td)
                 level = Mp + weak[0] * np.exp(-((v / weak[1]) ** 2))
