@@ -312,9 +312,9 @@ def test_trend_scale_is_the_value_over_the_change_of_the_power_across_the_data(p
 
 
 def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
-    """A coefficient at 0 beside a known one gets the trend box, the known one keeps the general rule, and the
-    constant term reaches as far as the higher coefficients can move the value (its sign is not the
-    parameter's); a user's box for the slope widens the intercept's reach with it."""
+    """A coefficient at 0 beside a known one gets the trend box, the known one a box symmetric about 0 (a trend
+    may vanish or turn), and the constant term reaches as far as the higher coefficients can move the value (its
+    sign is not the parameter's); a user's box for the slope widens the intercept's reach with it."""
     from hybridhyst.identify.space import SearchSpace
     from hybridhyst.physics.compositions import vpptd_algebraic
 
@@ -322,7 +322,7 @@ def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
     quad = vpptd_algebraic(c={"kind": "polynomial", "coeffs": [6.7, 20.0, 0.0], "condition": "pressure_mpa"}).double()
     box = {c.name: (c.lower, c.upper) for c in SearchSpace(quad, condition_ranges=ranges).coordinates}
     assert box["viscous.c.c2"] == pytest.approx((-10 * 6.7 / (0.09**2 - 0.01**2), 10 * 6.7 / (0.09**2 - 0.01**2)))
-    assert box["viscous.c.c1"] == pytest.approx((2.0, 200.0))
+    assert box["viscous.c.c1"] == pytest.approx((-200.0, 200.0))
     reach = 10 * 6.7 + 200.0 * 0.09 + box["viscous.c.c2"][1] * 0.09**2
     assert box["viscous.c.c0"] == pytest.approx((6.7 - reach, 6.7 + reach))
     line = vpptd_algebraic(c={"kind": "linear", "slope": 0.0, "intercept": 6.7, "condition": "pressure_mpa"}).double()

@@ -21,15 +21,17 @@ unknown sign (network weights) get ``(-10 |v|, 10 |v|)`` instead. User overrides
 ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
 strictly positive and spans more than a factor 3 are searched on a log scale.
 
-Trends not yet known (``trend_scale``, the one rule of identification and the discovery loop): a polynomial's
-coefficient of c^i that starts at 0 gets ``± factor · |c0| / Δ_i`` instead of (-1, 1), where Δ_i is how much
-c^i changes over the data's range of the condition (``condition_ranges``, from the records): a coefficient at
-the edge changes the parameter by ``factor`` × its value across the data. A polynomial's constant term gets
-``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the half-width of c^i's box, the user's where
-given), so that the value at the data's conditions can stay put while the trend moves: the intercept of a
-steep line lies far from the value, and its sign is not the parameter's (a damping that grows with pressure
-from a negative extrapolated intercept). A ``(c0 / 10, 10 c0)`` box kept it from crossing zero, and a trend
-added to a fitted model could not be refitted to the data (``tests/test_discover.py``).
+Polynomial trends (``trend_scale``, the one rule of identification and the discovery loop; only when the data's
+range of the condition is known): a coefficient of c^i (i ≥ 1) that starts at 0 gets ``± factor · |c0| / Δ_i``,
+where Δ_i is how much c^i changes over the data's range of the condition (``condition_ranges``, from the
+records): a coefficient at the edge changes the parameter by ``factor`` × its value across the data. One that
+does not start at 0 gets ``± factor · |c_i|``: a fitted trend may still vanish or turn (a ``(c_i / 10, 10 c_i)``
+box shrank a slope the data did not hold by at most 10× per refit, and the discovery loop's next candidate got
+the credit for the rest). The constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the
+half-width of c^i's box, the user's where given), so that the value at the data's conditions can stay put while
+the trend moves: the intercept of a steep line lies far from the value, and its sign is not the parameter's. A
+``(c0 / 10, 10 c0)`` box kept it from crossing zero, and a trend given to an effect the loop had added could
+not be refitted to the data (``tests/test_discover.py``).
 """
 
 from __future__ import annotations
@@ -151,16 +153,18 @@ def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
 
 def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float, ranges,
                  given: Mapping[int, tuple[float, float]]) -> dict[int, tuple[float, float]]:
-    """``{position: box}`` for the coefficients of a polynomial that start at 0 (trends not yet known; module
-    docstring) and for its constant term, whose reach follows the higher coefficients' boxes (``given``: the
-    user's, where set); {} for other functions."""
+    """``{position: box}`` for the coefficients of a polynomial: the higher ones symmetric about 0 (sized by the
+    trend scale where they start at 0, by their own size otherwise; module docstring), the constant term's reach
+    following the higher coefficients' boxes (``given``: the user's, where set); {} for other functions."""
     rng = (ranges or {}).get(condition)
     c0 = next((i for i, co in enumerate(declared) if not co.power), None)
     if rng is None or c0 is None or not any(co.power for co in declared):
         return {}
     boxes = {}
     for i, co in enumerate(declared):
-        scale = trend_scale(declared[c0].value, co.power, *rng) if co.power and co.value == 0.0 else None
+        if not co.power:
+            continue
+        scale = trend_scale(declared[c0].value, co.power, *rng) if co.value == 0.0 else abs(co.value)
         if scale is not None:
             boxes[i] = (-factor * scale, factor * scale)
     top = max(abs(rng[0]), abs(rng[1]))
