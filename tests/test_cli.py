@@ -259,3 +259,29 @@ def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expe
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert lines[0].startswith("error: ") and expected in lines[0], lines[0]
+
+
+def test_what_an_app_says_reaches_the_runs_log_file_once_and_bars_stay_off_a_file(tmp_path, capsys):
+    """Hydra's job log (``<run dir>/<app>.log``) held nothing: the apps print. ``say`` prints and writes the same
+    text to the root logger's file handlers only (the terminal shows it once); an error goes to stderr and the
+    log. A progress bar is silent where stderr is no terminal (pytest captures it): a redirected log would
+    fill with its carriage returns."""
+    import logging
+
+    from hybridhyst.cli.common import say
+    from hybridhyst.progress import progress
+
+    handler = logging.FileHandler(tmp_path / "app.log")
+    logging.getLogger().addHandler(handler)
+    try:
+        say("discovery: added clearance\n  test RMSE 0.5 -> 0.3 kip")
+        say("error: the split leaves no training record", error=True)
+    finally:
+        logging.getLogger().removeHandler(handler)
+        handler.close()
+    out = capsys.readouterr()
+    assert out.out.count("added clearance") == 1 and out.err.count("no training record") == 1
+    log = (tmp_path / "app.log").read_text()
+    assert "added clearance" in log and "test RMSE 0.5 -> 0.3 kip" in log and "no training record" in log
+    assert progress(range(3), "rank candidates").disable
+    assert progress(range(3), "rank candidates", enabled=False).disable

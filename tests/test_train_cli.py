@@ -267,3 +267,16 @@ def test_summary_tells_a_kept_start_from_the_trained_model_and_small_metrics_sho
                                   tmp_path)
     bars = [c for c in trainer.callbacks if type(c).__name__ == "RichProgressBar"]
     assert len(bars) == 1 and f"{2.8e-4:{bars[0].theme.metrics_format}}" == "0.00028"
+
+
+def test_summary_names_nominal_coordinates_the_identification_left_at_a_box_edge(tmp_path):
+    """The nominal a hybrid starts from was identified first; a value the box set (not the data) is named, with
+    the keys of this app that widen the box."""
+    info = {"name": "hybrid-mlp", "epochs": 1, "train_time_s": 1.0, "units": {"F": "Nm"}, "evaluated": "best"}
+    ident = {"rmse": 0.3, "wall_s": 2.0, "at_bounds": {"viscous.c": "upper"}}
+    result = {"info": info, "train": {"rmse": 0.2}, "val": {}, "test": {"rmse": 0.3},
+              "nominal": {"source": "identify", "identify": ident, "train": {"rmse": 0.3}, "val": {}, "test": {}}}
+    text = train.summary(result, tmp_path)
+    assert "viscous.c (upper edge)" in text and "nominal_init.settings={bounds:" in text
+    ident["at_bounds"] = {}
+    assert "edge" not in train.summary(result, tmp_path)

@@ -16,6 +16,7 @@ used), ``split.held_out`` (test) and ``split.val`` (validation), each a list of 
 from __future__ import annotations
 
 import difflib
+import logging
 import math
 import os
 import re
@@ -48,12 +49,14 @@ __all__ = [
     "check_kwargs",
     "check_model_data",
     "config_error_message",
+    "edge_line",
     "guarded",
     "hydra_entry",
     "instantiate",
     "jsonable",
     "load_records",
     "prepare_run_dir",
+    "say",
     "split_options",
     "torch_settings",
     "write_json",
@@ -198,6 +201,28 @@ def config_error_message(exc: Exception, cfg=None) -> str:
     return f"config key {key}: {detail}"
 
 
+def edge_line(at_bounds: dict, how: str) -> str:
+    """The sentence for coordinates that ended at an edge of identification's search box (``at_bounds``:
+    ``{name: "lower" | "upper"}``); ``how``: the app's keys that widen the box."""
+    edges = ", ".join(f"{n} ({side} edge)" for n, side in at_bounds.items())
+    return (f"At the edge of the search box: {edges}. The box, not the data, set these values: widen it ({how}) "
+            "or start nearer (the value in the model config).")
+
+
+def say(text: str, *, error: bool = False) -> None:
+    """Print ``text`` (to stderr when ``error``) and write it to the run's log file too (Hydra's job log,
+    ``<run dir>/<app>.log``: the root logger's file handlers only, so the terminal shows it once). Without this
+    the log held nothing: the apps speak through the terminal, and a run's own record of what it said, or why
+    it was refused, was lost with the terminal."""
+    print(text, file=sys.stderr if error else sys.stdout, flush=True)
+    root = logging.getLogger()
+    files = [h for h in root.handlers if isinstance(h, logging.FileHandler)]
+    if files:
+        record = root.makeRecord("hybridhyst", logging.ERROR if error else logging.INFO, __file__, 0, text, None, None)
+        for handler in files:
+            handler.handle(record)
+
+
 def _added_keys() -> set[str] | None:
     """The keys the command line added (``+key=value`` overrides of this run); None outside a Hydra run (a
     config composed by the compose API), where every sibling may be the misspelling."""
@@ -227,10 +252,9 @@ def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
             message = config_error_message(exc, cfg)
         else:
             message = " ".join(str(exc).split()) or type(exc).__name__
+        say(f"error: {message}", error=True)
         if os.environ.get("HYBRIDHYST_TRACEBACK") or _multirun():
-            print(f"error: {message}", file=sys.stderr, flush=True)
             raise
-        print(f"error: {message}", file=sys.stderr, flush=True)
         sys.exit(2)
 
 

@@ -30,6 +30,7 @@ from .common import (
     instantiate,
     load_records,
     prepare_run_dir,
+    say,
     split_options,
     to_plain,
     torch_settings,
@@ -106,7 +107,7 @@ def run(cfg: DictConfig) -> dict:
         model = instantiate(cfg.model, _convert_="all").double()
         note = check_model_data(model, records)  # before the first fit (the loop checks the conditions again)
         if note:  # records without units: the model's are assumed
-            print(note, flush=True)
+            say(note)
         split = split_options(cfg, ("held_out", "val"))
         from ..identify import identify
 
@@ -125,7 +126,7 @@ def run(cfg: DictConfig) -> dict:
     reuse = write_model(run_dir, result.model, "discovered", "discovered by hybridhyst-discover")
     result.report["model_config"] = "model/discovered.yaml"
     write_discovery(result, run_dir, title=title, unit=unit)
-    print("\n".join(summary_lines(result.report, unit, run_dir, reuse)), flush=True)
+    say("\n".join(summary_lines(result.report, unit, run_dir, reuse)))
     return result.report
 
 

@@ -33,6 +33,7 @@ from .common import (
     load_records,
     prepare_run_dir,
     resolution_note,
+    say,
     split_options,
     to_plain,
     torch_settings,
@@ -184,7 +185,7 @@ def run(cfg: DictConfig) -> dict:
         model = instantiate(cfg.model, _convert_="all")
         note = check_model_data(model, [*train, *held_out])
         if note:  # records without units: the model's are assumed
-            print(note, flush=True)
+            say(note)
         result, fit_factors = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
     summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
@@ -199,7 +200,7 @@ def run(cfg: DictConfig) -> dict:
     summary["loop_caption"] = loop_caption(loop_names, held_out.names, chosen is not None)
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
-    print("\n".join(summary_lines(summary, run_dir)), flush=True)
+    say("\n".join(summary_lines(summary, run_dir)))
     return summary
 
 

@@ -27,6 +27,7 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_model_data,
+    edge_line,
     guarded,
     hydra_entry,
     identify_options,
@@ -34,6 +35,7 @@ from .common import (
     load_records,
     prepare_run_dir,
     resolution_note,
+    say,
     split_options,
     torch_settings,
     write_json,
@@ -88,7 +90,7 @@ def _report(summary: dict) -> str:
         ok = "yes" if c["identifiable"] else "no"
         lines.append(f"| {c['expression']} | {c['eigenvalue']:.3g} | {_num(c['sd'])} | {ok} |")
     if summary["at_bounds"]:
-        lines += ["", _edge_line(summary)]
+        lines += ["", edge_line(summary["at_bounds"], WIDEN)]
     if summary["non_identifiable"]:
         lines += ["", "Not identifiable from these records (they trade off): "
                   + ", ".join(summary["non_identifiable"]) + ". Compare responses and the identifiable "
@@ -97,11 +99,8 @@ def _report(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _edge_line(summary: dict) -> str:
-    edges = ", ".join(f"{n} ({side} edge)" for n, side in summary["at_bounds"].items())
-    return (f"At the edge of the search box: {edges}. The box, not the data, set these values: widen it "
-            "(identify.bounds={name: [low, high]}, or identify.box_factor) or start nearer (the value in the model "
-            "config).")
+# the keys that widen identification's search box, for the sentence on coordinates at its edge
+WIDEN = "identify.bounds={name: [low, high]}, or identify.box_factor"
 
 
 def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]:
@@ -119,7 +118,7 @@ def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]
         traded = ", ".join(summary["non_identifiable"])
         lines.append(f"  not identifiable from these records (they trade off): {traded}")
     if summary["at_bounds"]:
-        lines.append(f"  {_edge_line(summary)}")
+        lines.append("  " + edge_line(summary["at_bounds"], WIDEN))
     note = resolution_note(summary["simulation"], "identify")
     lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     if reuse:
@@ -163,7 +162,7 @@ def run(cfg: DictConfig) -> dict:
         model = instantiate(cfg.model, _convert_="all")
         note = check_model_data(model, records)
         if note:  # records without units: the model's are assumed
-            print(note, flush=True)
+            say(note)
         result = _identify(model, records, cfg)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
@@ -176,7 +175,7 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)
-    print("\n".join(summary_lines(summary, run_dir, reuse)), flush=True)
+    say("\n".join(summary_lines(summary, run_dir, reuse)))
     return summary
 
 

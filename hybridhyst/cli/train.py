@@ -26,6 +26,7 @@ import copy
 import json
 import math
 import shutil
+import textwrap
 import time
 import warnings
 from pathlib import Path
@@ -47,12 +48,14 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
+    edge_line,
     guarded,
     hydra_entry,
     identify_options,
     jsonable,
     prepare_run_dir,
     run_dir_path,
+    say,
     torch_settings,
     write_json,
 )
@@ -100,7 +103,8 @@ def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
                          "(nominal_init.settings={bounds: ...} sets the search box; nominal_init.method=none "
                          "starts from the model config's values)") from e
     return {"rmse": result.rmse, "wall_s": result.wall_s, "records": len(records), "search": result.search,
-            "refine": str(opts["refine"]), "evaluations": result.evaluations, "x": result.x}
+            "refine": str(opts["refine"]), "evaluations": result.evaluations, "x": result.x,
+            "at_bounds": dict(result.at_bounds)}
 
 
 def _monitor(dm: RecordDataModule) -> str:
@@ -155,7 +159,7 @@ def run(cfg: DictConfig) -> dict:
     if not cfg.get("ckpt_path"):
         done = finished_run(cfg) if cfg.get("skip_finished") else None
         if done is not None:
-            print(f"{done['info']['name']}: finished earlier with this config, kept: {run_dir_path(cfg)}", flush=True)
+            say(f"{done['info']['name']}: finished earlier with this config, kept: {run_dir_path(cfg)}")
             return done
         _clear(run_dir_path(cfg))
     run_dir = prepare_run_dir(cfg)
@@ -245,7 +249,7 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         atomic_write(run_dir / "model.pt", lambda p: torch.save(module.nominal.state_dict(), p))
     _log_hparams(trainer, cfg, result)
     write_json(run_dir / "metrics.json", result)
-    print(summary(result, run_dir, cfg.get("ckpt_path")), flush=True)
+    say(summary(result, run_dir, cfg.get("ckpt_path")))
     return result
 
 
@@ -276,6 +280,9 @@ def summary(result: dict, run_dir: Path, resumed: str | None = None) -> str:
         trained, start = _distinct(floor["trained_rmse"], floor["rmse"])
         lines.append(f"  the trained model's {floor['split']} RMSE {trained} {unit} is above the "
                      f"starting model's {start} {unit}: the starting weights are kept")
+    if ident and ident.get("at_bounds"):  # the box, not the data, set these: the hybrid starts from them
+        lines += textwrap.wrap(edge_line(ident["at_bounds"], "nominal_init.settings={bounds: {name: [low, high]}} "
+                                         "or {box_factor: ...}"), 116, initial_indent="  ", subsequent_indent="  ")
     lines.append(f"  run dir: {run_dir}")
     return "\n".join(lines)
 
