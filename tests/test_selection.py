@@ -78,3 +78,38 @@ def test_special_cases_name_library_effects():
     for name, cls in EFFECTS.items():
         for case in cls.special_cases:
             assert case and all(n in EFFECTS and n != name for n in case), (name, case)
+
+
+def test_an_added_effect_is_swapped_for_a_finalist_it_beat_only_when_the_loop_names_it():
+    """F = x + 0.8x³ + 0.2v + 0.4 arctan sign: a hardening Bouc–Wen (γ < 0) plays the cubic spring. Its special
+    cases (Dahl) cannot, so without rivals it stays; given the finalist it beat when it was added
+    (``rivals``, what the loop passes once it has stopped), it is replaced by the cubic spring, fitted near 0.8."""
+    from hybridhyst.physics.effects import BoucWenHysteresis
+
+    rng = np.random.default_rng(0)
+    records = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0, 1 / 100)
+        x, v = -amp * np.cos(2 * np.pi * t), 2 * np.pi * amp * np.sin(2 * np.pi * t)
+        y = x + 0.8 * x**3 + 0.2 * v + 0.4 * (2 / np.pi) * np.arctan(v / 0.01) + 0.01 * rng.standard_normal(len(t))
+        records.append(Record(f"a{amp}", t, x, y, conditions={"amplitude_in": amp}))
+    model = Constitutive({"spring": LinearStiffness(k=1.0), "viscous": Viscous(c=0.2),
+                          "coulomb": Coulomb(Fc=0.4, v_s=0.01, fixed=["v_s"]),
+                          "bouc_wen": BoucWenHysteresis(alpha=0.0, k=0.3, k1=0.0, D=1.0, A=1.0, beta=0.0, gamma=-0.3,
+                                                        n=2.0, fixed=["alpha", "k1", "D", "A"])}).double()
+    sim = {**SIM, "backend": "fast"}  # a hysteretic state: the compiled loop
+    fit = polish(model, records, sim, 25, 10.0)
+    n = sum(len(r) for r in records)
+    ic, val = information_criterion(fit.sse, n, fit.k, "bic"), rmse_on(fit.model, records, sim)
+
+    def run(rivals):
+        return simplify(fit, records, sim, Scales.of(records), n, OPTS, ic, val,
+                        lambda m, s: rmse_on(m, records, s), rivals=rivals)
+
+    kept, _, _, changes = run(None)
+    assert changes == [] and "bouc_wen" in kept.model.effects
+    swapped, _, _, changes = run({"bouc_wen": ["cubic_stiffness"]})
+    assert [(c["effect"], c["kind"], c["by"]) for c in changes] == [("bouc_wen", "replaced", ["cubic_stiffness"])]
+    (cubic,) = [e for e in swapped.model.effects.values() if e.name == "cubic_stiffness"]
+    assert math.isclose(float(cubic.params["k3"].value.detach()), 0.8, rel_tol=0.05)
+    assert "bouc_wen" not in {e.name for e in swapped.model.effects.values()}

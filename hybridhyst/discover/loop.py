@@ -217,6 +217,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     for cond in trend_conditions:
         try_trends(cond, "before effects")
     stopped = "rule"  # the best candidate was not accepted, or none was left
+    rivals: dict[str, list[str]] = {}  # effect added -> the other effects validation compared it with then
     for _step in range(int(max_steps)):
         cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
         if not cands:
@@ -262,6 +263,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             break
         steps.append(entry)
         tried.add(cand.name)
+        rivals[cand.name] = [f[0].name for f in finals if f[0] is not cand and f[0].kind == "effect"]
         fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
         ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), score(fit.model, _at(sim, fit))
         fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
@@ -272,6 +274,14 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         removed += gone
     else:  # every step accepted an effect: the cap ended the loop, not the rule
         stopped = "max_steps"
+    # each added effect against the finalists it beat when it was added, on the final model (once)
+    rivals = {name: [r for r in names if r not in tried] for name, names in rivals.items()}
+    if any(rivals.values()):
+        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
+                                           (lambda items, what: progress_bar(items, what, enabled=progress)), rivals)
+        for g in gone:
+            g["after_step"] = len(steps)
+        removed += gone
     added_keys = set(fit.model.effects) - set(initial.effects)
     if added_keys:  # the added effects' own parameters may depend on the condition (the nominal's had their turn)
         for cond in trend_conditions:

@@ -2,7 +2,10 @@
 without it and in place of it each simpler set of effects it contains as a special case
 (``Effect.special_cases``: Stribeck with vs → ∞ is Coulomb, LuGre with Fs = Fc and no damping is Dahl,
 Bouc–Wen with n = 1, γ = 0 is Dahl, ...). A greedy loop takes the most flexible element that explains the
-residual at one step; once the rest of the model is in place, the simpler element often does as well."""
+residual at one step; once the rest of the model is in place, the simpler element often does as well. Once
+the loop has stopped, each added effect is also tried swapped for the finalists it beat on validation when it
+was added (a hardening Bouc–Wen chosen over a cubic spring while a Dahl element, later replaced, was still
+there)."""
 
 from __future__ import annotations
 
@@ -40,31 +43,36 @@ def combined(candidates: list[Candidate]) -> Candidate:
                      meta={"effects": [c.name for c in candidates]})
 
 
-def _alternatives(fit: Fit, key: str, scales):
+def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None):
     """``(effects put in its place, model without it, candidate adding them or None)`` for each way to
     simplify effect ``key``: removal, then each of its special cases, less the effects the model already has
-    (those stay and absorb it; a case they cover entirely is the removal)."""
+    (those stay and absorb it; a case they cover entirely is the removal), then each of its ``rivals`` (by
+    effect name: the library effects validation compared it with when the loop added it) not in the model."""
     effect = fit.model.effects[key]
     reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
     yield (), reduced, None
     present = {e.name for e in reduced.effects.values()}
-    for case in type(effect).special_cases:
+    cases = [tuple(case) for case in type(effect).special_cases]
+    cases += [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in cases]
+    for case in cases:
         new = [n for n in case if n not in present]
         if new:
-            yield tuple(case), reduced, combined(effect_candidates(reduced, scales, new))
+            yield case, reduced, combined(effect_candidates(reduced, scales, new))
 
 
-def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None):
+def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None, rivals=None):
     """Remove or swap effects while that lowers the information criterion and raises the validation error by
     less than half the margin: each round takes the alternative with the lowest criterion, until none
-    qualifies. Returns (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or
-    "replaced", ``by`` the effects put in its place)."""
+    qualifies. ``rivals`` (``{effect name: [library effect names]}``) adds swaps for another effect of the
+    library (the loop passes each added effect's finalists once it has stopped: a choice made on the model of
+    that step may no longer hold on the final one). Returns (fit, ic, val_rmse, entries) with one entry per
+    change (``kind`` "removed" or "replaced", ``by`` the effects put in its place)."""
     changes = []
     while len(fit.model.effects) > 1:
         best = None
         keys = list(fit.model.effects)
         for key in progress(keys, "simplify") if progress else keys:
-            for by, reduced, cand in _alternatives(fit, key, scales):
+            for by, reduced, cand in _alternatives(fit, key, scales, rivals):
                 try:
                     f = (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
                          else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
