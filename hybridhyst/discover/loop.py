@@ -263,7 +263,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             break
         steps.append(entry)
         tried.add(cand.name)
-        rivals[cand.name] = [f[0].name for f in finals if f[0] is not cand and f[0].kind == "effect"]
+        # the close calls: finalists validation turned down where the information criterion preferred them
+        rivals[cand.name] = [f[0].name for f in finals if f[0] is not cand and f[0].kind == "effect"
+                             and information_criterion(f[1].sse, n_train, f[1].k, criterion) < f_ic]
         fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
         ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), score(fit.model, _at(sim, fit))
         fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
@@ -274,7 +276,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         removed += gone
     else:  # every step accepted an effect: the cap ended the loop, not the rule
         stopped = "max_steps"
-    # each added effect against the finalists it beat when it was added, on the final model (once)
+    # each added effect against the close calls of its step, on the final model (once)
     rivals = {name: [r for r in names if r not in tried] for name, names in rivals.items()}
     if any(rivals.values()):
         fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,

@@ -4,8 +4,8 @@ without it and in place of it each simpler set of effects it contains as a speci
 Bouc–Wen with n = 1, γ = 0 is Dahl, ...). A greedy loop takes the most flexible element that explains the
 residual at one step; once the rest of the model is in place, the simpler element often does as well. Once
 the loop has stopped, each added effect is also tried swapped for the finalists it beat on validation when it
-was added (a hardening Bouc–Wen chosen over a cubic spring while a Dahl element, later replaced, was still
-there)."""
+was added although the information criterion preferred them (a hardening Bouc–Wen chosen over a cubic spring
+while a Dahl element, later replaced, was still there)."""
 
 from __future__ import annotations
 
