@@ -312,9 +312,11 @@ def test_trend_scale_is_the_value_over_the_change_of_the_power_across_the_data(p
 
 
 def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
-    """A coefficient at 0 beside a known one gets the trend box, the known one a box symmetric about 0 (a trend
-    may vanish or turn), and the constant term reaches as far as the higher coefficients can move the value (its
-    sign is not the parameter's); a user's box for the slope widens the intercept's reach with it."""
+    """A coefficient at 0 beside a known one gets the trend box, the known one and the constant term keep the
+    general rule, except in a local refit of fitted trends (``refit_trends``, the discovery loop's): there the
+    known one gets a box symmetric about 0 (a trend may vanish or turn) and the constant term reaches as far as
+    the higher coefficients can move the value (its sign is not the parameter's), over data at more than one
+    level only. A user's box for the slope widens the intercept's reach with it."""
     from hybridhyst.identify.space import SearchSpace
     from hybridhyst.physics.compositions import vpptd_algebraic
 
@@ -322,9 +324,17 @@ def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
     quad = vpptd_algebraic(c={"kind": "polynomial", "coeffs": [6.7, 20.0, 0.0], "condition": "pressure_mpa"}).double()
     box = {c.name: (c.lower, c.upper) for c in SearchSpace(quad, condition_ranges=ranges).coordinates}
     assert box["viscous.c.c2"] == pytest.approx((-10 * 6.7 / (0.09**2 - 0.01**2), 10 * 6.7 / (0.09**2 - 0.01**2)))
-    assert box["viscous.c.c1"] == pytest.approx((-200.0, 200.0))
+    assert box["viscous.c.c0"] == pytest.approx((0.67, 67.0)) and box["viscous.c.c1"] == pytest.approx((2.0, 200.0))
+    def boxes(**options):
+        return {c.name: (c.lower, c.upper) for c in SearchSpace(quad, refit_trends=True, **options).coordinates}
+
+    refit = boxes(condition_ranges=ranges)
+    assert refit["viscous.c.c1"] == pytest.approx((-200.0, 200.0)) and refit["viscous.c.c2"] == box["viscous.c.c2"]
     reach = 10 * 6.7 + 200.0 * 0.09 + box["viscous.c.c2"][1] * 0.09**2
-    assert box["viscous.c.c0"] == pytest.approx((6.7 - reach, 6.7 + reach))
+    assert refit["viscous.c.c0"] == pytest.approx((6.7 - reach, 6.7 + reach))
+    one_level = boxes(condition_ranges={"pressure_mpa": (0.03, 0.03)})
+    assert one_level["viscous.c.c0"] == pytest.approx((0.67, 67.0))
+    assert one_level["viscous.c.c1"] == pytest.approx((2.0, 200.0))
     line = vpptd_algebraic(c={"kind": "linear", "slope": 0.0, "intercept": 6.7, "condition": "pressure_mpa"}).double()
     wide = {c.name: (c.lower, c.upper)
             for c in SearchSpace(line, {"viscous.c.c1": (-5000.0, 5000.0)}, condition_ranges=ranges).coordinates}

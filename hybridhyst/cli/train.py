@@ -299,7 +299,9 @@ def _distinct(a, b) -> tuple[str, str]:
 
 
 def _rmse(m) -> str:
-    return f"{m['rmse']:.4g}" if m else "-"
+    if not m:
+        return "-"
+    return "inf" if m.get("rmse") is None else f"{m['rmse']:.4g}"  # None: not finite (JSON null)
 
 
 def _physics(module) -> dict:

@@ -41,8 +41,9 @@ def _problem(space, train, sim, substeps):
 
 
 def _space(model, train, **options) -> SearchSpace:
-    """The search space of ``model`` with trend boxes sized by the training records' conditions."""
-    return SearchSpace(model, condition_ranges=condition_ranges(train), **options)
+    """The search space of ``model`` with trend boxes sized by the training records' conditions; fitted trends
+    get the boxes of a local refit (``SearchSpace``'s ``refit_trends``)."""
+    return SearchSpace(model, condition_ranges=condition_ranges(train), refit_trends=True, **options)
 
 
 def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:

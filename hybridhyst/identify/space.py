@@ -24,14 +24,19 @@ strictly positive and spans more than a factor 3 are searched on a log scale.
 Polynomial trends (``trend_scale``, the one rule of identification and the discovery loop; only when the data's
 range of the condition is known): a coefficient of c^i (i ≥ 1) that starts at 0 gets ``± factor · |c0| / Δ_i``,
 where Δ_i is how much c^i changes over the data's range of the condition (``condition_ranges``, from the
-records): a coefficient at the edge changes the parameter by ``factor`` × its value across the data. One that
-does not start at 0 gets ``± factor · |c_i|``: a fitted trend may still vanish or turn (a ``(c_i / 10, 10 c_i)``
-box shrank a slope the data did not hold by at most 10× per refit, and the discovery loop's next candidate got
-the credit for the rest). The constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i: the
-half-width of c^i's box, the user's where given), so that the value at the data's conditions can stay put while
-the trend moves: the intercept of a steep line lies far from the value, and its sign is not the parameter's. A
-``(c0 / 10, 10 c0)`` box kept it from crossing zero, and a trend given to an effect the loop had added could
-not be refitted to the data (``tests/test_discover.py``).
+records): a coefficient at the edge changes the parameter by ``factor`` × its value across the data. When every
+higher coefficient starts at 0, the constant term gets ``c0 ± (factor · |c0| + Σ_i half_i · max|c|^i)`` (half_i:
+the half-width of c^i's box, the user's where given), so that the value at the data's conditions can stay put
+while the trend moves (the intercept of a steep line lies far from the value, and its sign is not the
+parameter's).
+
+Fitted trends (``refit_trends``, the discovery loop's local refits, over data at more than one level): a known
+coefficient of c^i gets ``± factor · |c_i|`` and the constant term the same reach whatever the higher ones are.
+With the general rule a fitted slope could only shrink 10× per refit, and the intercept could not cross zero:
+a trend given to an effect the loop had added could not be refitted to the data, and the loop's next candidate
+got the credit for the rest of a slope the data did not hold (``tests/test_discover.py``,
+``experiments/discovery_testbed``). Identification's global search keeps the general rule for them: boxes that
+wide let it wander into laws that diverge between the data's levels.
 """
 
 from __future__ import annotations
@@ -152,21 +157,26 @@ def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
 
 
 def _trend_boxes(declared: list[FunctionCoordinate], condition: str | None, factor: float, ranges,
-                 given: Mapping[int, tuple[float, float]]) -> dict[int, tuple[float, float]]:
-    """``{position: box}`` for the coefficients of a polynomial: the higher ones symmetric about 0 (sized by the
-    trend scale where they start at 0, by their own size otherwise; module docstring), the constant term's reach
-    following the higher coefficients' boxes (``given``: the user's, where set); {} for other functions."""
+                 given: Mapping[int, tuple[float, float]], refit: bool = False) -> dict[int, tuple[float, float]]:
+    """``{position: box}`` for the coefficients of a polynomial (module docstring): the higher ones that start at
+    0 symmetric about 0, sized by the trend scale, and the constant term's reach following the higher
+    coefficients' boxes (``given``: the user's, where set) while every trend is unknown; with ``refit`` (a local
+    refit of fitted trends, over data at more than one level of the condition) the known higher coefficients
+    too, by their own size, and the constant term whatever they are. {} for other functions."""
     rng = (ranges or {}).get(condition)
     c0 = next((i for i, co in enumerate(declared) if not co.power), None)
     if rng is None or c0 is None or not any(co.power for co in declared):
         return {}
+    known = refit and rng[0] != rng[1]  # one level cannot move a known trend: its coefficients trade off exactly
     boxes = {}
     for i, co in enumerate(declared):
-        if not co.power:
+        if not co.power or (co.value != 0.0 and not known):
             continue
         scale = trend_scale(declared[c0].value, co.power, *rng) if co.value == 0.0 else abs(co.value)
         if scale is not None:
             boxes[i] = (-factor * scale, factor * scale)
+    if not known and any(co.value != 0.0 for co in declared if co.power):
+        return boxes
     top = max(abs(rng[0]), abs(rng[1]))
     halves = {i: max(abs(b) for b in given.get(i, boxes.get(i, _box(co.value, factor))))
               for i, co in enumerate(declared) if co.power}
@@ -194,11 +204,14 @@ class SearchSpace(Box):
         values (e.g. the discovery loop fitting only a newly added effect).
     condition_ranges : ``{condition: (lowest, highest)}`` in the data (``condition_ranges(records)``): sizes
         the boxes of trends not yet known (module docstring); without it they get the general rule.
+    refit_trends : boxes for fitted trends that let them vanish, turn, and move their intercept across zero
+        (module docstring): the discovery loop's local refits. A global search keeps the general rule for
+        them: boxes that wide let it wander into laws that diverge between the data's levels.
     """
 
     def __init__(self, model: nn.Module, bounds: Mapping[str, tuple[float, float]] | None = None,
                  factor: float = 10.0, free=None,
-                 condition_ranges: Mapping[str, tuple[float, float]] | None = None):
+                 condition_ranges: Mapping[str, tuple[float, float]] | None = None, refit_trends: bool = False):
         self.model = model
         self.functions = {(k, n): fn for k, e in model.effects.items() for n, fn in e.params.items()}
         specs = {(k, n): e.param_specs[n] for k, e in model.effects.items() for n in e.params}
@@ -212,7 +225,7 @@ class SearchSpace(Box):
             self.sizes[(key, pname)] = len(declared)
             names = [f"{key}.{pname}{co.suffix}" for co in declared]
             given = {i: bounds[name] for i, name in enumerate(names) if name in bounds}
-            trends = _trend_boxes(declared, fn.condition, factor, condition_ranges, given)
+            trends = _trend_boxes(declared, fn.condition, factor, condition_ranges, given, refit_trends)
             for position, (co, name) in enumerate(zip(declared, names)):
                 override = bounds.pop(name, None)
                 if override is None:
