@@ -217,7 +217,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     for cond in trend_conditions:
         try_trends(cond, "before effects")
     stopped = "rule"  # the best candidate was not accepted, or none was left
-    rivals: dict[str, list[str]] = {}  # effect added -> the other effects validation compared it with then
+    rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried again at the end)
     for _step in range(int(max_steps)):
         cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
         if not cands:
