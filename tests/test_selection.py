@@ -102,9 +102,9 @@ def test_an_added_effect_is_swapped_for_a_finalist_it_beat_only_when_the_loop_na
     n = sum(len(r) for r in records)
     ic, val = information_criterion(fit.sse, n, fit.k, "bic"), rmse_on(fit.model, records, sim)
 
-    def run(rivals):
+    def run(rivals, settled=False):
         return simplify(fit, records, sim, Scales.of(records), n, OPTS, ic, val,
-                        lambda m, s: rmse_on(m, records, s), rivals=rivals)
+                        lambda m, s: rmse_on(m, records, s), rivals=rivals, settled=settled)
 
     kept, _, _, changes = run(None)
     assert changes == [] and "bouc_wen" in kept.model.effects
@@ -113,3 +113,23 @@ def test_an_added_effect_is_swapped_for_a_finalist_it_beat_only_when_the_loop_na
     (cubic,) = [e for e in swapped.model.effects.values() if e.name == "cubic_stiffness"]
     assert math.isclose(float(cubic.params["k3"].value.detach()), 0.8, rel_tol=0.05)
     assert "bouc_wen" not in {e.name for e in swapped.model.effects.values()}
+    # the loop's final pass (the model already simplified): the swap alone in the first round, the same result
+    settled, _, _, changes = run({"bouc_wen": ["cubic_stiffness"]}, settled=True)
+    assert [(c["effect"], c["by"]) for c in changes] == [("bouc_wen", ["cubic_stiffness"])]
+    assert settled.sse == pytest.approx(swapped.sse, rel=1e-9)
+
+
+def test_a_settled_model_is_not_simplified_again_without_a_rival():
+    """``settled``: the model has been through the removals already, so the first round tries rivals only; with
+    none, a removal that would qualify (a vanished extra damper) is not made (the loop's final pass does not
+    repeat its last step's work)."""
+    model = Constitutive({"spring": LinearStiffness(k=1.5), "viscous": Viscous(c=0.1),
+                          "coulomb": Coulomb(Fc=0.3, v_s=0.01, fixed=["v_s"]),
+                          "extra": Viscous(c=0.0)}).double()
+    records = _records(0.0, 1.0)
+    fit = polish(model, records, SIM, 25, 10.0)
+    n = sum(len(r) for r in records)
+    ic, val = information_criterion(fit.sse, n, fit.k, "bic"), rmse_on(fit.model, records, SIM)
+    _, _, _, changes = simplify(fit, records, SIM, Scales.of(records), n, OPTS, ic, val,
+                                lambda m, s: rmse_on(m, records, s), settled=True)
+    assert changes == [] and len(fit.model.effects) == 4

@@ -276,11 +276,13 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         removed += gone
     else:  # every step accepted an effect: the cap ended the loop, not the rule
         stopped = "max_steps"
-    # each added effect against the close calls of its step, on the final model (once)
+    # each added effect against the close calls of its step, on the final model (once; the model has been
+    # through the removals and special cases after its last step: those are not tried again until a swap)
     rivals = {name: [r for r in names if r not in tried] for name, names in rivals.items()}
     if any(rivals.values()):
         fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
-                                           (lambda items, what: progress_bar(items, what, enabled=progress)), rivals)
+                                           (lambda items, what: progress_bar(items, what, enabled=progress)), rivals,
+                                           settled=True)
         for g in gone:
             g["after_step"] = len(steps)
         removed += gone

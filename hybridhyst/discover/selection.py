@@ -43,36 +43,43 @@ def combined(candidates: list[Candidate]) -> Candidate:
                      meta={"effects": [c.name for c in candidates]})
 
 
-def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None):
+def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None, only_rivals=False):
     """``(effects put in its place, model without it, candidate adding them or None)`` for each way to
     simplify effect ``key``: removal, then each of its special cases, less the effects the model already has
     (those stay and absorb it; a case they cover entirely is the removal), then each of its ``rivals`` (by
-    effect name: the library effects validation compared it with when the loop added it) not in the model."""
+    effect name: the library effects validation compared it with when the loop added it) not in the model;
+    ``only_rivals``: the rivals' swaps alone."""
     effect = fit.model.effects[key]
     reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
-    yield (), reduced, None
+    special = [tuple(case) for case in type(effect).special_cases]
+    if not only_rivals:
+        yield (), reduced, None
     present = {e.name for e in reduced.effects.values()}
-    cases = [tuple(case) for case in type(effect).special_cases]
-    cases += [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in cases]
+    swaps = [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in special]
+    cases = swaps if only_rivals else special + swaps
     for case in cases:
         new = [n for n in case if n not in present]
         if new:
             yield case, reduced, combined(effect_candidates(reduced, scales, new))
 
 
-def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None, rivals=None):
+def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None, rivals=None,
+             settled=False):
     """Remove or swap effects while that lowers the information criterion and raises the validation error by
     less than half the margin: each round takes the alternative with the lowest criterion, until none
     qualifies. ``rivals`` (``{effect name: [library effect names]}``) adds swaps for another effect of the
-    library (the loop passes each added effect's finalists once it has stopped: a choice made on the model of
-    that step may no longer hold on the final one). Returns (fit, ic, val_rmse, entries) with one entry per
-    change (``kind`` "removed" or "replaced", ``by`` the effects put in its place)."""
+    library (the loop passes each added effect's close calls once it has stopped: a choice made on the model of
+    that step may no longer hold on the final one). ``settled``: ``fit`` has already been through this without
+    rivals (none of those alternatives qualified), so the first round tries the rivals' swaps alone. Returns
+    (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or "replaced", ``by`` the
+    effects put in its place)."""
     changes = []
     while len(fit.model.effects) > 1:
         best = None
         keys = list(fit.model.effects)
+        only_rivals = settled and not changes
         for key in progress(keys, "simplify") if progress else keys:
-            for by, reduced, cand in _alternatives(fit, key, scales, rivals):
+            for by, reduced, cand in _alternatives(fit, key, scales, rivals, only_rivals):
                 try:
                     f = (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
                          else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
