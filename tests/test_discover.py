@@ -393,3 +393,44 @@ def test_an_effect_whose_level_depends_on_the_condition_gets_its_trend_after_it_
                      ("trends~pressure_mpa", "after effects")]
     assert rep["steps"][2]["trends"] == {"coulomb.Fc": "linear"}
     assert rep["after"]["test_rmse"] <= 1.2 * noise < rep["steps"][1]["test_rmse"]
+
+
+def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away_from_rest(float64):
+    """Records from an exact gap + Dahl integration (numpy, ``testbed.generators``), each started as a rig
+    starts a test: moved down to −A first, so the gap is closed on the negative side and the element fully
+    deflected. From the clearance started at rest, the start candidate (``start_candidates``: one per effect
+    with ``Effect.start``, not for one that has its start already, never a condition trend) recovers q0 and
+    brings the error to the noise; the condition candidates leave the start state alone."""
+    from hybridhyst.discover.candidates import condition_candidates, start_candidates
+    from hybridhyst.discover.fitting import fit_candidate, polish
+    from hybridhyst.physics.effects import Clearance, Dahl, LinearStiffness, LuGre
+    from hybridhyst.physics.models import Constitutive
+    from hybridhyst.testbed.generators import clearance_dahl
+
+    r, sigma0, up, down, noise = 0.06, 15.0, 0.5, 0.7, 0.01
+    q0 = -(r + down / sigma0)
+    rng = np.random.default_rng(3)
+    records = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0, 1 / 150)
+        fine = np.linspace(0, 2.0, 20 * len(t) - 19)  # exact on a refined path, sampled every 20th point
+        x_fine = -amp * np.cos(2 * np.pi * fine)
+        y = 2 * x_fine[::20] + clearance_dahl(x_fine, r, sigma0, up, down, q0)[::20]
+        records.append(Record(f"a{amp}", t, x_fine[::20], y + noise * rng.standard_normal(len(t)),
+                              conditions={"amplitude_in": amp}))
+    model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": Clearance(sigma0=12.0, Fc=0.55, a=-0.1,
+                                                                                    r=0.05)}).double()
+    sim = {"backend": "fast", "method": "rk4", "substeps": 2}
+    fit = polish(model, records, sim, 25, 10.0)
+    scales = Scales.of(records)
+    (cand,) = start_candidates(fit.model, scales)
+    assert cand.name == "clearance.start" and cand.kind == "start" and cand.free == ["clearance.q0"]
+    c_fit = fit_candidate(cand, fit.model, records, {**sim, "substeps": fit.substeps}, 25, 10.0)
+    assert c_fit.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
+    assert math.sqrt(c_fit.sse / sum(len(r_) for r_ in records)) < 1.2 * noise < math.sqrt(fit.sse / 600)
+    assert start_candidates(c_fit.model, scales) == []  # started already
+    assert all(c.meta["param"] != "q0" for c in condition_candidates(c_fit.model, {"amplitude_in": [0.5, 1.0]}))
+    # one per effect that may start away from rest; none for the rest (a spring has no state)
+    many = Constitutive({"spring": LinearStiffness(k=1.0), "dahl": Dahl(sigma0=5.0, Fc=1.0),
+                         "lugre": LuGre(sigma0=5.0, Fc=1.0, Fs=1.2, vs=0.1)}).double()
+    assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]

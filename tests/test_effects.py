@@ -145,13 +145,15 @@ def test_lugre_without_stribeck_and_damping_is_dahl():
     assert float(F_dahl.abs().max()) > 0.9  # saturated, so the test covers the nonlinear part
 
 
-def exact_clearance(x: np.ndarray, r: float, sigma0: float, Fc_pos: float, Fc_neg: float) -> np.ndarray:
+def exact_clearance(x: np.ndarray, r: float, sigma0: float, Fc_pos: float, Fc_neg: float,
+                    q0: float = 0.0) -> np.ndarray:
     """Force of a Dahl element behind a gap of half-width r along a path x (written independently): exact per
-    increment. q = gap opening + bristle deflection, q(0) = 0; moving in direction s, the deflection
+    increment. q = gap opening + bristle deflection, q(0) = q0; moving in direction s, the deflection
     z = q + s r (loaded against the motion) or q − s r (with it) relaxes in travel towards s L,
     L = Fc_s / σ0, as z ← s L + (z − s L) e^(−travel / L); in between (|q| ≤ r) q follows x. An increment
     that reaches a boundary (z = 0: the gap opens; |q| = r: it closes) is split there."""
-    q, out = 0.0, np.zeros_like(x)
+    q = q0
+    out = np.full_like(x, sigma0 * (q - min(max(q, -r), r)))
     for k in range(1, len(x)):
         left = abs(x[k] - x[k - 1])
         s = 1.0 if x[k] > x[k - 1] else -1.0
@@ -231,6 +233,37 @@ def test_clearance_force_is_zero_across_the_gap(backend):
         assert travel[zero[-1]] - travel[zero[0]] == pytest.approx(2 * r, abs=2 * dt)
         beyond = window[travel[window] > opens + 2 * r + 2 * dt]
         assert np.all(s * F[beyond] > 0)  # loading the other way
+
+
+@pytest.mark.parametrize("backend", ["reference", "fast"])
+def test_a_start_state_starts_every_record_there_with_exact_derivatives(backend):
+    """``Clearance(q0=...)`` (``Effect.start``): the state starts at q0 instead of 0 (here the gap closed on the
+    negative side and the element fully deflected, as a move down to the first point leaves it), the response
+    matches the exact path integration from q0, and the compiled Jacobian w.r.t. q0 equals a central difference."""
+    from hybridhyst.physics.build import build_effect
+    from hybridhyst.simulate.api import simulate_jacobian
+
+    r, sigma0, Fc, a, A, dt = 0.1, 20.0, 0.5, 0.2, 0.5, 1e-3
+    q0 = -(r + Fc * (1 - a) / sigma0)
+    t, inputs, x, path = triangle(A, dt)
+    model = Constitutive([Clearance(sigma0=sigma0, Fc=Fc, a=a, r=r, q0=q0)]).double()
+    F = respond(model, inputs, t=t, backend=backend)[0].numpy()
+    np.testing.assert_allclose(F, exact_clearance(path, r, sigma0, Fc * (1 + a), Fc * (1 - a), q0), atol=1e-5 * Fc)
+    assert F[0] == pytest.approx(-Fc * (1 - a)) and np.all(F[1: round(2 * r / dt) - 5] <= 0)  # unloads, then the gap
+    assert not np.allclose(F, respond(Constitutive([Clearance(sigma0=sigma0, Fc=Fc, a=a, r=r)]).double(), inputs,
+                                      t=t, backend=backend)[0].numpy(), atol=0.1)
+    config = model.effects["clearance"].config()
+    assert config["q0"] == pytest.approx(q0) and build_effect("clearance", config).config() == config  # round trip
+    if backend == "fast":
+        values = {"clearance": {k: torch.tensor([v], dtype=torch.float64) for k, v in config.items() if k != "effect"}}
+        _, dy, keys = simulate_jacobian(model, inputs, t, values=values, substeps=1)
+        h = 1e-6
+        up, down = ({**values, "clearance": {**values["clearance"], "q0": values["clearance"]["q0"] + d}}
+                    for d in (h, -h))
+        fd = (simulate(model, inputs, t, values=up) - simulate(model, inputs, t, values=down))[0, :, 0] / (2 * h)
+        np.testing.assert_allclose(dy[0, :, 0, keys.index(("clearance", "q0"))].numpy(), fd.numpy(), atol=1e-6)
+    with pytest.raises(ValueError, match="start state"):
+        Clearance(sigma0=sigma0, Fc=Fc, z0=0.1)  # the clearance's start is q0
 
 
 def test_maxwell_storage_stiffness_and_loss_under_a_sine():

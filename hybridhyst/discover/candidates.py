@@ -4,6 +4,7 @@ search for them starts (from the data's scales and the parameters' unit template
 
 from __future__ import annotations
 
+import copy
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -15,7 +16,8 @@ from ..physics.effects import EFFECTS, Effect
 from ..physics.models import DrivenOscillator
 from ..physics.parameters import Constant, Linear
 
-__all__ = ["Candidate", "Scales", "condition_candidates", "effect_candidates", "library_candidates"]
+__all__ = ["Candidate", "Scales", "condition_candidates", "effect_candidates", "library_candidates",
+           "start_candidates"]
 
 # Effects left out of the default candidate list: bouc_wen_normalised is seed 002's re-parametrisation of
 # bouc_wen (the same family twice would only split the evidence); the neural effect names no physical effect
@@ -181,7 +183,7 @@ def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> li
         mid = 0.5 * (values[0] + values[-1])
         for key, effect in model.effects.items():
             for pname, fn in effect.params.items():
-                if not isinstance(fn, Constant):
+                if not isinstance(fn, Constant) or pname in effect.start:  # a start state is the protocol's
                     continue
                 v = float(fn.value.detach())
                 slope = trend_scale(v, 1, values[0], values[-1])
@@ -204,11 +206,42 @@ def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> li
     return out
 
 
+def start_candidates(model, scales: Scales) -> list[Candidate]:
+    """One candidate per effect of ``model`` whose state may start a record away from rest (``Effect.start``: a
+    gap's position, a presliding deflection) and that still starts at 0: every record then starts from one
+    fitted state, shared by all (the records of one test protocol start after the same kind of motion). It
+    starts at 0 (the fitted model itself) and at ± 0.05 and ± 0.3 of the data's scale of the state's unit; its
+    box is the general one for a real coordinate (``_interval``)."""
+    out = []
+    for key, effect in model.effects.items():
+        if not effect.start or any(name in effect.params for name in effect.start):
+            continue
+        bounds, starts = {}, [{}]
+        for pname, spec in effect.start.items():
+            scale = scales.of_unit(spec.unit) or 1.0
+            coord = f"{key}.{pname}"
+            bounds[coord] = _interval(spec, scale, 0.0)
+            starts = [{**s, coord: f * scale} for s in starts for f in (0.0, -0.05, 0.05, -0.3, 0.3)]
+
+        def build(m, key=key):
+            effect = copy.deepcopy(m.effects[key])
+            for pname, spec in effect.start.items():
+                effect.add_parameter(pname, 0.0, spec)
+            return m.with_effects({**dict(m.effects.items()), key: effect.to(next(m.parameters()).dtype)})
+
+        names = ", ".join(effect.start)
+        out.append(Candidate(name=f"{key}.start", kind="start", build_fn=build, free=list(bounds), bounds=bounds,
+                             starts=starts, describe=f"every record starts with {key}'s state at a fitted value "
+                             f"({names}) instead of at rest", meta={"key": key, "effect": effect.name}))
+    return out
+
+
 def library_candidates(model, scales: Scales, conditions: Mapping[str, Sequence[float]] | None = None,
                        effects: Sequence[str] | None = None) -> list[Candidate]:
-    """Every effect candidate (or those named in ``effects``) and every condition candidate."""
+    """Every effect candidate (or those named in ``effects``), every condition candidate and every start-state
+    candidate."""
     out = effect_candidates(model, scales, effects)
     if conditions:
         out += condition_candidates(model, conditions)
-    return out
+    return out + start_candidates(model, scales)
 

@@ -103,7 +103,7 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
                 f"fit ({trends}). With them (every parameter refitted) {tail}")
     new = ", ".join(f"{k} = {_fmt(v)}" + (f" {step['parameters'].get(k, {}).get('unit', '')}".rstrip())
                     for k, v in step.get("new_coordinates", {}).items())
-    kind = "effect" if step["kind"] == "effect" else "parameter function"
+    kind = {"effect": "effect", "start": "start state"}.get(step["kind"], "parameter function")
     compared = ev.get("compared") or {}
 
     def also(c):  # the other errors a compared candidate was scored on (``validation: both``)

@@ -59,8 +59,9 @@ def choose_trend(c: np.ndarray, y: np.ndarray) -> tuple[str, dict]:
 
 
 def _free_constants(model):
+    """The constant parameters (not a start state: one for every record of a protocol, ``Effect.start``)."""
     return [(key, pname) for key, effect in model.effects.items() for pname, fn in effect.params.items()
-            if isinstance(fn, Constant)]
+            if isinstance(fn, Constant) and pname not in effect.start]
 
 
 def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_factor: float,

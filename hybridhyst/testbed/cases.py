@@ -297,6 +297,18 @@ def _build_cases() -> list[Case]:
                                "dahl": {"effect": "dahl", "sigma0": 10.0, "Fc": 0.5}}), STD_SPLIT,
               "2x + 0.3v + Dahl σ0 15 behind a clearance r 0.06 in, levels 0.5 (v > 0) / 0.7 (v < 0) (exact per "
               "step, split at the gap); nominal spring + viscous + Dahl", "150"))
+    # the same device, each test started as a rig starts it: moved down to −A first, so the gap is closed on the
+    # negative side and the element fully deflected (q0 = −(r + Fc_neg / σ0) = −0.1067 in); the first upward
+    # stroke then crosses the whole gap unloaded. The library's clearance.q0 has the same meaning.
+    add(_case("clearance+start", "single", [{"clearance"}], [("clearance.r", 0.06, 0.20),
+                                                             ("clearance.q0", -(0.06 + 0.7 / 15.0), 0.25)], 0.03,
+              lambda: _sine_records("clearance+start", STD, clearance_law(2.0, 0.3, r=0.06, sigma0=15.0, Fc_pos=0.5,
+                                                                           Fc_neg=0.7, q0=-(0.06 + 0.7 / 15.0)),
+                                    spc=150, cycles=2, noise=0.03, seed=16, refine=20),
+              lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2),
+                               "dahl": {"effect": "dahl", "sigma0": 10.0, "Fc": 0.5}}), STD_SPLIT,
+              "the clearance case, each test started with the gap closed on the negative side and the element "
+              "fully deflected (as the rig's move down to −A leaves it); nominal spring + viscous + Dahl", "150"))
     # ---------------------------------------------------------------- pair
     add(_case("backlash+coulomb", "pair", [{"backlash"}, COULOMB],
               [("backlash.r", 0.08, 0.20), ("coulomb.Fc", 0.4, 0.15)], 0.03,

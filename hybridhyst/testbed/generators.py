@@ -189,13 +189,16 @@ def dahl_exact(x, sigma0: float, Fc: float, z0: float = 0.0) -> np.ndarray:
     return z
 
 
-def clearance_dahl(x_fine, r: float, sigma0: float, Fc_pos: float, Fc_neg: float) -> np.ndarray:
+def clearance_dahl(x_fine, r: float, sigma0: float, Fc_pos: float, Fc_neg: float,
+                   q0: float = 0.0) -> np.ndarray:
     """Force of a Dahl friction element driven through a clearance (a gap of half-width r in series), exactly
     along a displacement path (apply it on a refined one: reversals inside a step are then negligible).
 
-    The state q is the gap opening plus the bristle deflection, q = 0 at the first point (the gap centred,
-    no load); the force is σ0 (q − clamp(q, −r, r)). Along a monotone step of direction s (±1), with the
-    level Fc_s of that direction (``Fc_pos`` for s = +1, ``Fc_neg`` for s = −1) and ℓ = Fc_s / σ0:
+    The state q is the gap opening plus the bristle deflection, q = ``q0`` at the first point (0: the gap
+    centred, no load; −(r + Fc_neg / σ0): closed on the negative side and fully deflected, as a motion
+    down to the first point leaves it); the force is σ0 (q − clamp(q, −r, r)). Along a monotone step of
+    direction s (±1), with the level Fc_s of that direction (``Fc_pos`` for s = +1, ``Fc_neg`` for s = −1)
+    and ℓ = Fc_s / σ0:
 
     * gap closed behind the motion (s q < −r, force against the motion): the deflection z = q + s r relaxes
       towards s ℓ, z ← s ℓ + (z − s ℓ) e^(−σ0 |Δx| / Fc_s), until z = 0 (after a travel ℓ ln(1 + |z| / ℓ)):
@@ -208,8 +211,8 @@ def clearance_dahl(x_fine, r: float, sigma0: float, Fc_pos: float, Fc_neg: float
     ``Fc_pos`` going up and at −``Fc_neg`` going down; after a reversal it unloads along Dahl's curve,
     stays exactly 0 while the input crosses the gap (a travel of 2r) and then loads the other way."""
     x = np.asarray(x_fine, float)
-    force = np.zeros_like(x)
-    q = 0.0
+    q = float(q0)
+    force = np.full_like(x, sigma0 * (q - min(max(q, -r), r)))
     for k in range(1, len(x)):
         step = x[k] - x[k - 1]
         if step == 0.0:

@@ -87,12 +87,13 @@ def lugre_law(k, c, **lugre):
     return law
 
 
-def clearance_law(k, c, r, sigma0, Fc_pos, Fc_neg):
-    """k x + c v + a Dahl element behind a gap of half-width r (exact per step on the refined path)."""
+def clearance_law(k, c, r, sigma0, Fc_pos, Fc_neg, q0=0.0):
+    """k x + c v + a Dahl element behind a gap of half-width r (exact per step on the refined path), its state
+    q0 at the first point."""
 
     def fine(tf, sig):
         x = sig.x(tf)
-        return k * x + c * sig.v(tf) + g.clearance_dahl(x, r, sigma0, Fc_pos, Fc_neg)
+        return k * x + c * sig.v(tf) + g.clearance_dahl(x, r, sigma0, Fc_pos, Fc_neg, q0)
 
     return fine
 

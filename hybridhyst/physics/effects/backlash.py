@@ -28,7 +28,8 @@ class Backlash(Effect):
     everywhere (through the projection while the gap is closed).
 
     Initial state: d(0) = 0, i.e. y(0) = x(0): the play starts centred on the excitation's initial value.
-    Pass the full initial state to ``simulate`` to start at another gap.
+    ``d0`` (optional) starts every record at another gap (where the motion before it left the play); or pass
+    the full initial state to ``simulate``.
 
     Units: r [x] (≥ 0, neutral 0, stored unconstrained); state d [x].
     Shapes: ``(batch,)``; state ``(batch, 1)``. ``force`` returns None (no force of its own).
@@ -40,6 +41,10 @@ class Backlash(Effect):
     state_dim = 1
     equation = "dd/dt = v, d in [-r, r] (projected);  later effects see x - d, v [d sign(v) >= r]"
     source = "Krasnosel'skii & Pokrovskii 1989 (play operator)"
+    start: ClassVar[dict[str, ParameterSpec]] = {
+        "d0": ParameterSpec(0.0, "x", (-1e9, 1e9), "real", neutral=0.0, signed=True,
+                            doc="gap at the start of each record (0: the play centred on the initial input)"),
+    }
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "r": ParameterSpec(0.0, "x", (0.0, 1e6), "nonnegative", neutral=0.0, doc="half-width of the play"),
     }

@@ -130,15 +130,21 @@ class Effect(nn.Module):
     # simpler effect sets this effect contains as an exact special case or limit (e.g. Stribeck with vs → ∞ is
     # Coulomb): the discovery loop tries each in its place and keeps the simpler one when the data allow
     special_cases: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    # the state each record starts from, one optional parameter per state component, for elements that the motion
+    # before a record may leave away from rest (a gap's position, a presliding deflection): present only where
+    # given (``Clearance(q0=...)``); without them the state starts at 0. The discovery loop offers them as a
+    # candidate (``discover.candidates.start_candidates``).
+    start: ClassVar[dict[str, ParameterSpec]] = {}
 
     def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
         super().__init__()
-        unknown = set(values) - set(self.specs)
+        unknown = set(values) - set(self.specs) - set(self.start)
         if unknown:
             raise ValueError(
-                f"effect {self.name!r} has no parameter(s) {sorted(unknown)}; its parameters are {sorted(self.specs)}"
+                f"effect {self.name!r} has no parameter(s) {sorted(unknown)}; its parameters are "
+                f"{sorted(self.specs)}" + (f" (and the start state {sorted(self.start)})" if self.start else "")
             )
-        bad_fixed = set(fixed) - set(self.specs)
+        bad_fixed = set(fixed) - set(self.specs) - set(self.start)
         if bad_fixed:
             raise ValueError(f"effect {self.name!r}: cannot fix unknown parameter(s) {sorted(bad_fixed)}")
         self.params = nn.ModuleDict()
@@ -158,6 +164,9 @@ class Effect(nn.Module):
                                          f"({lo:g}, {hi:g}), got {value}; to hold it at or beyond a bound, fix it: "
                                          f"fixed=[{pname!r}]")
                 self.params[pname] = build_function(value, spec)
+        for pname, spec in self.start.items():
+            if pname in values:
+                self.add_parameter(pname, values[pname], spec, fixed=pname in fixed)
 
     # -- parameters -------------------------------------------------------------------------------
     def value_names(self) -> list[str]:
@@ -192,7 +201,11 @@ class Effect(nn.Module):
 
     # -- contributions (defaults: contributes nothing) --------------------------------------------
     def initial_state(self, p: dict[str, torch.Tensor], batch: int) -> torch.Tensor:
+        """The state at the start of a record, ``(batch, state_dim)``: the ``start`` parameters where the effect
+        has them, else 0."""
         ref = next(iter(p.values())) if p else torch.zeros(())
+        if self.start and all(name in p for name in self.start):
+            return torch.stack([p[name].expand(batch) for name in self.start], dim=1)
         return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
 
     def rate(self, p: dict[str, torch.Tensor], kin: Kinematics, state: torch.Tensor) -> torch.Tensor:

@@ -36,7 +36,8 @@ class Clearance(Effect):
 
     Units: sigma0 [F/x] (> 0, presliding stiffness), Fc [F] (> 0, mean sliding level), a [-] (in
     [−0.9, 0.9], neutral 0: the level is Fc (1 + a) for v > 0 and Fc (1 − a) for v < 0), r [x] (≥ 0,
-    neutral 0: no clearance). Shapes: ``(batch,)``; state ``(batch, 1)``, q(0) = 0 (the gap centred, no load).
+    neutral 0: no clearance). Shapes: ``(batch,)``; state ``(batch, 1)``, q(0) = 0 (the gap centred, no load) or ``q0``
+    (optional: where the motion before a record left the gap).
     Source: P. R. Dahl, Aerospace Corp. TOR-0158(3107-18)-1, 1968 (friction element); a clearance in
     series as in M. Nordin, P.-O. Gutman, "Controlling mechanical systems with backlash — a survey",
     Automatica 38(10), 1633–1649, 2002 (the dead-zone model of a gap in a transmission).
@@ -47,6 +48,10 @@ class Clearance(Effect):
     equation = "F = sigma0 (q - clamp(q, -r, r));  dq/dt = v - |v| F / (Fc (1 + a sign v))"
     source = "Dahl 1968; Nordin & Gutman 2002 (dead-zone backlash)"
     special_cases = (("dahl",), ("backlash", "asymmetric_coulomb"), ("backlash", "coulomb"))
+    start: ClassVar[dict[str, ParameterSpec]] = {
+        "q0": ParameterSpec(0.0, "x", (-1e9, 1e9), "real", neutral=0.0, signed=True,
+                            doc="gap opening + deflection at the start of each record (0: gap centred, no load)"),
+    }
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "sigma0": ParameterSpec(1e3, "F/x", (1e-9, 1e12), "positive", doc="presliding stiffness behind the gap"),
         "Fc": ParameterSpec(1.0, "F", (1e-12, 1e9), "positive", doc="sliding (Coulomb) friction level"),

@@ -27,7 +27,7 @@ class LuGre(Effect):
     (≥ 0, viscous, default 0), Fc [F] (> 0, Coulomb level), Fs [F] (> 0, static level, usually Fs ≥ Fc),
     vs [x/t] (> 0, Stribeck velocity). The state relaxes with rate σ0 |v| / g(v) [1/t]: the fixed-step
     solver needs h · σ0 |v| / g ≲ 2 (use ``substeps``). Shapes: ``(batch,)``; state ``(batch, 1)``,
-    z(0) = 0.
+    z(0) = 0 or ``z0`` (optional: the deflection the motion before a record left).
     Source: C. Canudas de Wit, H. Olsson, K. J. Åström, P. Lischinsky, "A new model for control of
     systems with friction", IEEE Trans. Automatic Control 40(3), 419–425, 1995.
     """
@@ -38,6 +38,10 @@ class LuGre(Effect):
     source = "Canudas de Wit et al. 1995"
     # Fs = Fc, σ1 = σ2 = 0: Dahl (with σ2: + viscous); Fc, Fs → 0: viscous
     special_cases = (("dahl",), ("dahl", "viscous"), ("viscous",))
+    start: ClassVar[dict[str, ParameterSpec]] = {
+        "z0": ParameterSpec(0.0, "x", (-1e9, 1e9), "real", neutral=0.0, signed=True,
+                            doc="bristle deflection at the start of each record"),
+    }
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "sigma0": ParameterSpec(1e3, "F/x", (1e-9, 1e12), "positive", doc="bristle stiffness"),
         "sigma1": ParameterSpec(0.0, "F*t/x", (0.0, 1e9), "nonnegative", neutral=0.0, doc="bristle micro-damping"),

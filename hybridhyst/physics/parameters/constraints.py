@@ -72,6 +72,8 @@ class ParameterSpec:
     smoothing : the parameter is a smoothing width (of a sign, a corner): the element is meant to be sharp
         against the data, so discovery searches it only well below the data's scale of its unit (a sign
         smoothed over the data's own speeds is a linear term, not the effect the element names).
+    signed : its sign is not known in advance (a start state): identification searches it in a box symmetric
+        about 0 (``± factor · |value|``) instead of one that keeps its sign.
     """
 
     default: float
@@ -81,6 +83,7 @@ class ParameterSpec:
     neutral: float | None = None
     doc: str = ""
     smoothing: bool = False
+    signed: bool = False
 
 
 def render_unit(template: str, units: dict[str, str] | None) -> str:
