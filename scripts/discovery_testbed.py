@@ -56,16 +56,19 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--json", metavar="PATH", help="write the rows and the summary as JSON")
     ap.add_argument("--validation", choices=VALIDATION, default="records",
                     help="discover's validation for every case (default: records, the library default)")
+    ap.add_argument("--no-start-states", action="store_true",
+                    help="discover without the start-state candidates (start_states=False) for every case")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
-    if args.write_readme and args.validation != "records":
-        ap.error("--write-readme writes the table of the library's defaults; run the other validations with --json")
+    if args.write_readme and (args.validation != "records" or args.no_start_states):
+        ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
     names = args.cases.split(",") if args.cases else list(FAST_CASES) if args.fast else [c.name for c in CASES]
     unknown = [n for n in names if n not in CASE_BY_NAME]
     if unknown:
         ap.error(f"unknown case(s) {unknown}; the bed has {sorted(CASE_BY_NAME)}")
     start = time.perf_counter()
-    options = {"validation": args.validation} if args.validation != "records" else None
+    options = {**({"validation": args.validation} if args.validation != "records" else {}),
+               **({"start_states": False} if args.no_start_states else {})} or None
     rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options)
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])

@@ -119,7 +119,8 @@ def run(cfg: DictConfig) -> dict:
                        max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,
                        fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
                        backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
-                       leftover=str(d.leftover), validation=str(d.validation), progress=bool(cfg.progress))
+                       leftover=str(d.leftover), validation=str(d.validation),
+                       start_states=bool(d.start_states), progress=bool(cfg.progress))
         result = discover(records, model, **options)
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"

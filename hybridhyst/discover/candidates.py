@@ -237,11 +237,11 @@ def start_candidates(model, scales: Scales) -> list[Candidate]:
 
 
 def library_candidates(model, scales: Scales, conditions: Mapping[str, Sequence[float]] | None = None,
-                       effects: Sequence[str] | None = None) -> list[Candidate]:
-    """Every effect candidate (or those named in ``effects``), every condition candidate and every start-state
-    candidate."""
+                       effects: Sequence[str] | None = None, start_states: bool = True) -> list[Candidate]:
+    """Every effect candidate (or those named in ``effects``), every condition candidate and (``start_states``)
+    every start-state candidate."""
     out = effect_candidates(model, scales, effects)
     if conditions:
         out += condition_candidates(model, conditions)
-    return out + start_candidates(model, scales)
+    return out + (start_candidates(model, scales) if start_states else [])
 

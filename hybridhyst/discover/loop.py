@@ -92,7 +92,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
-             validation: str = "records", progress: bool = True) -> DiscoveryResult:
+             validation: str = "records", start_states: bool = True, progress: bool = True) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -112,6 +112,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         validation records' error (a refit per training operating point for every model scored); or "both",
         the validation records' error and the training groups' leave-one-out error, each of which must fall
         by the margin (``validation.Score``; the report gives both as ``parts_*``).
+    start_states : also try starting every record from one fitted state of an element the motion before a record
+        may leave away from rest (``Effect.start``: a gap's position, a presliding deflection), one candidate
+        per such element (``candidates.start_candidates``).
     criterion : "bic" or "aic", which must also fall; max_steps : effects added at most.
     top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
@@ -219,7 +222,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     stopped = "rule"  # the best candidate was not accepted, or none was left
     rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried again at the end)
     for _step in range(int(max_steps)):
-        cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates) if c.name not in tried]
+        cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates, start_states)
+                 if c.name not in tried]
         if not cands:
             break
         ranking = []
