@@ -264,6 +264,8 @@ def test_a_start_state_starts_every_record_there_with_exact_derivatives(backend)
         np.testing.assert_allclose(dy[0, :, 0, keys.index(("clearance", "q0"))].numpy(), fd.numpy(), atol=1e-6)
     with pytest.raises(ValueError, match="start state"):
         Clearance(sigma0=sigma0, Fc=Fc, z0=0.1)  # the clearance's start is q0
+    held = Clearance(sigma0=sigma0, Fc=Fc, fixed=["q0"])  # named in fixed without a value: held at rest
+    assert float(held.params["q0"](None, 1)[0]) == 0.0 and not list(held.params["q0"].parameters())
 
 
 def test_maxwell_storage_stiffness_and_loss_under_a_sine():

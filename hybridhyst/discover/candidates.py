@@ -1,6 +1,7 @@
-"""Candidate augmentations of a nominal model: every library effect, and any parameter as a function of a
-condition. A candidate knows how to build the augmented model, which coordinates are new, and where the
-search for them starts (from the data's scales and the parameters' unit templates)."""
+"""Candidate augmentations of a nominal model: every library effect, any parameter as a function of a
+condition, and the state a record starts from (``Effect.start``). A candidate knows how to build the augmented
+model, which coordinates are new, and where the search for them starts (from the data's scales and the
+parameters' unit templates)."""
 
 from __future__ import annotations
 
@@ -67,7 +68,7 @@ class Candidate:
     ``bounds`` and ``starts`` (a few initial values each, tried as restarts in one batch)."""
 
     name: str
-    kind: str  # "effect" or "condition"
+    kind: str  # "effect", "condition" or "start"
     build_fn: object
     free: list[str]
     bounds: dict[str, tuple[float, float]]
@@ -201,7 +202,7 @@ def condition_candidates(model, conditions: Mapping[str, Sequence[float]]) -> li
                 # start with the value at the centre of the training conditions unchanged
                 starts = [{c0: v - s * slope * mid, c1: s * slope} for s in (-0.3, 0.3)]
                 out.append(Candidate(name=name, kind="condition", build_fn=build, free=[c0, c1], bounds={},
-                                     starts=starts, describe=f"{key}.{pname} as a linear function of {cond}",
+                                     starts=starts, describe=f"{key}.{pname} as a linear function of {cond}.",
                                      meta={"key": key, "param": pname, "condition": cond, "centre": mid}))
     return out
 
@@ -232,7 +233,7 @@ def start_candidates(model, scales: Scales) -> list[Candidate]:
         names = ", ".join(effect.start)
         out.append(Candidate(name=f"{key}.start", kind="start", build_fn=build, free=list(bounds), bounds=bounds,
                              starts=starts, describe=f"every record starts with {key}'s state at a fitted value "
-                             f"({names}) instead of at rest", meta={"key": key, "effect": effect.name}))
+                             f"({names}) instead of at rest.", meta={"key": key, "effect": effect.name}))
     return out
 
 

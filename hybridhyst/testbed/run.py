@@ -5,13 +5,14 @@ are passed. Per case (``run_case``):
 
 * named: the effects of the final model that the nominal lacked (``report["effects"]["added"]``: one
   accepted and removed again, or replaced by a simpler special case, is not named; the simpler one is);
-  trends: the accepted condition steps (kind
-  "trend" or "condition": parameters made functions of a condition), reported apart and not counted as
-  effects; dropped: nominal effects the loop removed (reported, not scored);
+  trends: the accepted steps that add no effect (kind
+  "trend" or "condition": parameters made functions of a condition; "start": the state every record
+  starts from), reported apart and not counted as effects; dropped: nominal effects the loop removed
+  (reported, not scored);
 * single / pair / condition: found = every expected family has a member among the named effects, wrong =
   named effects in no expected family, ok_effect = found and nothing wrong; each key parameter fitted
   vs its truth (relative error, within its tolerance: ok_param);
-* clean: ok_effect = nothing added (neither an effect nor a condition trend: the truth has neither);
+* clean: ok_effect = nothing added (neither an effect nor a trend or start state: the truth has neither);
 * out_of_library: ok_effect = nothing named; flagged = ``report["unexplained"]["structure_flagged"]``
   (False when missing); ok needs both;
 * ok_rmse: held-out RMSE after discovery / noise sd ≤ ``RMSE_RATIO`` (1.2);

@@ -119,7 +119,8 @@ class Effect(nn.Module):
     ----------
     fixed : names of parameters held constant (stored as buffers, not trained).
     **values : parameter values: numbers, parameter-function configs (``{"kind": "linear", ...}``)
-        or ``ParameterFunction`` modules. Missing parameters take ``spec.default``.
+        or ``ParameterFunction`` modules. Missing parameters take ``spec.default``; a start state (``start``)
+        exists only where it is given (a value, or its name in ``fixed``: held at 0).
     """
 
     specs: ClassVar[dict[str, ParameterSpec]] = {}
@@ -165,8 +166,9 @@ class Effect(nn.Module):
                                          f"fixed=[{pname!r}]")
                 self.params[pname] = build_function(value, spec)
         for pname, spec in self.start.items():
-            if pname in values:
-                self.add_parameter(pname, values[pname], spec, fixed=pname in fixed)
+            if pname in values or pname in fixed:
+                value = values.get(pname)
+                self.add_parameter(pname, spec.default if value is None else value, spec, fixed=pname in fixed)
 
     # -- parameters -------------------------------------------------------------------------------
     def value_names(self) -> list[str]:
