@@ -102,7 +102,8 @@ def run() -> dict:
 
 def table(results: dict) -> str:
     lines = ["RMSE [kip]; 'its own records': in sample, on the records the structure was fitted to", "",
-             "| structure | fitted on | sub-steps | its own records | 1 in tests | earthquakes |", "|---|---|---|---|---|---|"]
+             "| structure | fitted on | sub-steps | its own records | 1 in tests | earthquakes |",
+             "|---|---|---|---|---|---|"]
     for entry in results["fits"].values():
         lines.append(f"| {entry['structure']} | {entry['fitted_on']} | {entry['substeps']} | "
                      f"{entry['own']:.4f} | {entry['val']['rmse']:.4f} | {entry['test']['rmse']:.4f} |")

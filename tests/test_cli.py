@@ -81,6 +81,9 @@ def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path, capsys):
     dahl = on_disk["parameters"]["dahl"]
     assert dahl["sigma0"]["unit"] == "kip/in" and dahl["sigma0"]["value"] > 0
     assert summary["fit"]["steps"]["adam"] == 2
+    # each part is simulated at the sub-steps it needs, from the fit's (simulate_resolved)
+    assert all(s >= summary["fit"]["substeps"] for s in on_disk["evaluate"]["substeps"].values())
+    assert set(on_disk["evaluate"]["substeps"]) == {"train", "held_out"}
     assert summary["reference"] is None  # a different protocol than the reference numbers'
     report = (tmp_path / "report.md").read_text()
     assert "char_1Hz_36lb_1in" in report and "loop.png" in report

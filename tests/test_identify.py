@@ -301,6 +301,32 @@ def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
     assert scaled["viscous.c.c0"] == pytest.approx((6.7 - 67 - half * 0.09, 6.7 + 67 + half * 0.09))
 
 
+def test_a_trend_that_leaves_its_parameters_domain_at_a_records_condition_simulates_nothing(float64):
+    """Seen in a user trial: a refit drove a Dahl element's σ0 and Fc trends below zero at a training level
+    (σ0 = −3.74 + 3.84·I kip/in): the boxes bound a trend's coefficients, not its values. A member whose
+    positive (or bounded) parameter is out of its domain at a record's condition is NaN there, and its cost
+    infinite; inside the domain nothing changes."""
+    from hybridhyst.identify.space import SearchSpace
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    model = vpptd_algebraic(c={"kind": "linear", "slope": 50.0, "intercept": 2.0, "condition": "pressure_mpa"}).double()
+    space = SearchSpace(model, condition_ranges={"pressure_mpa": (0.01, 0.09)}, refit_trends=True)
+    x = space.initial()
+    rows = torch.stack([x, x.clone()])
+    rows[1, space.names.index("viscous.c.c0")] = -1.0  # c = −1 + 50 p: below zero at p < 0.02
+    pressures = torch.tensor([0.01, 0.05, 0.09], dtype=torch.float64)
+    c = space.values(rows, {"pressure_mpa": pressures}, 3)["viscous"]["c"].reshape(2, 3)
+    assert torch.allclose(c[0], 2.0 + 50.0 * pressures)
+    assert torch.isnan(c[1, 0]) and torch.allclose(c[1, 1:], -1.0 + 50.0 * pressures[1:])
+    assert list(space.domains) == [("viscous", "c")]  # a constant is held in its domain by its box
+    t = np.linspace(0, 2, 200)
+    records = [Record(name=f"p{p}", t=t, x=np.sin(np.pi * t), y=np.zeros_like(t), conditions={"pressure_mpa": p},
+                      units={"t": "s", "x": "deg", "y": "Nm"}) for p in (0.01, 0.05, 0.09)]
+    problem = RecordsProblem(space, records, method="rk4", substeps=1, backend="reference")
+    cost = problem.cost(rows)
+    assert math.isfinite(float(cost[0])) and not math.isfinite(float(cost[1]))
+
+
 @pytest.mark.parametrize("power,lo,hi,span", [(1, 0.01, 0.09, 0.08), (2, -1.0, 2.0, 4.0), (2, -3.0, -1.0, 8.0),
                                                (3, -1.0, 2.0, 9.0), (1, 5.0, 5.0, 5.0)])
 def test_trend_scale_is_the_value_over_the_change_of_the_power_across_the_data(power, lo, hi, span):

@@ -207,3 +207,38 @@ def test_records_on_different_grids_are_not_batched_together(float64):
     alone = simulate(model, [b])
     assert torch.allclose(together[1], alone[0])
     assert torch.allclose(together[1][:, 0], torch.ones(11), atol=1e-9)  # c · dx/dt with x = t
+
+
+def dahl_force(t, amplitude, sigma0, Fc, refine=20):
+    """Dahl's force under x = A sin(2π t) from the test bed's exact solution along a refined path (numpy, no
+    integrator: ``testbed.generators.dahl_exact``)."""
+    from hybridhyst.testbed.generators import dahl_exact, fine_grid
+
+    fine = fine_grid(t, refine)
+    return sigma0 * dahl_exact(amplitude * np.sin(2 * np.pi * fine), sigma0, Fc)[::refine]
+
+
+def test_simulate_resolved_takes_the_steps_a_stiffer_record_needs(float64):
+    """A Dahl bristle relaxes at σ0 |v| / Fc: resolved on a ±1 sine, the same model on a ±4 sine diverges at
+    those sub-steps. ``simulate_resolved`` doubles them for that record and matches the exact solution; on the
+    record it was resolved on it keeps its sub-steps and its output."""
+    from hybridhyst.data import Record
+    from hybridhyst.physics.effects import Dahl
+    from hybridhyst.physics.models import Constitutive
+    from hybridhyst.simulate import resolved_substeps, simulate_resolved
+    from hybridhyst.simulate.api import RESOLVED
+
+    model = Constitutive({"dahl": Dahl(sigma0=100.0, Fc=1.0)}, units={"t": "s", "x": "in", "F": "kip"})
+    t = np.arange(0.0, 2.0, 0.01)
+    fitted, other = (Record(name=f"A{a}", t=t, x=a * np.sin(2 * np.pi * t), y=np.zeros_like(t)) for a in (1.0, 4.0))
+    opts = {"method": "rk4", "backend": "reference"}
+    s, _ = resolved_substeps(model, [fitted], substeps=1, **opts)
+    with torch.no_grad():
+        plain = simulate(model, [other], substeps=s, **opts)[0][:, 0]
+    assert not (torch.isfinite(plain).all() and plain.abs().max() < 10.0)  # diverges at the fitted record's steps
+    (out,), sub, change = simulate_resolved(model, [other], substeps=s, **opts)
+    assert sub > s and change <= RESOLVED
+    assert np.sqrt(np.mean((out[:, 0].numpy() - dahl_force(t, 4.0, 100.0, 1.0)) ** 2)) < 2e-3
+    (same,), s_same, _ = simulate_resolved(model, [fitted], substeps=s, **opts)
+    with torch.no_grad():
+        assert s_same == s and torch.equal(same, simulate(model, [fitted], substeps=s, **opts)[0])

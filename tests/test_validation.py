@@ -165,3 +165,26 @@ def test_with_both_a_trend_the_validation_records_cannot_see_is_not_accepted():
     assert any(line.startswith("  leave-one-condition-out RMSE") and f"{loco:.4g}" in line for line in lines)
     text = report_markdown(results["both"], "t", "N")
     assert "a change must lower both by the margin" in text and "and the leave-one-condition-out RMSE" in text
+
+
+def test_held_out_records_are_scored_at_the_sub_steps_they_need():
+    """Seen in a user trial: a model fitted and resolved on the training conditions diverged on a held-out one
+    (test RMSE 6e6 kip where the model, simulated finely, was at the noise). Here a Dahl law (exact numpy
+    solution) fitted on ±1 to ±2 in sines needs finer steps on the held-out ±4 in sine, whose bristle
+    relaxes twice as fast; the loop scores it at those (``substeps_scored``) and reports the noise level."""
+    from hybridhyst.data import RecordSet
+    from hybridhyst.physics.effects import Dahl
+    from hybridhyst.testbed.generators import dahl_exact, fine_grid
+
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 2.0, 0.01)
+    fine = fine_grid(t, 20)  # Dahl's exact solution along a refined path (the test bed's numpy, no integrator)
+    records = [Record(name=f"A{a}", t=t, x=a * np.sin(2 * np.pi * t), conditions={"amplitude": a},
+                      y=100.0 * dahl_exact(a * np.sin(2 * np.pi * fine), 100.0, 1.0)[::20]
+                      + NOISE * rng.standard_normal(len(t))) for a in (1.0, 1.5, 2.0, 4.0)]
+    nominal = Constitutive({"dahl": Dahl(sigma0=80.0, Fc=1.2)}, units={"t": "s", "x": "in", "F": "kip"})
+    result = discover(RecordSet(records), nominal, split={"held_out": [{"amplitude": [4.0]}]}, max_steps=0,
+                      conditions=False, fit_nominal=False, progress=False)
+    assert result.report["after"]["test_rmse"] == pytest.approx(NOISE, rel=0.1)  # was not finite
+    settings = result.report["settings"]
+    assert settings["substeps_scored"]["test"] > settings["substeps_final"] == settings["substeps_scored"]["train"]

@@ -16,12 +16,11 @@ from pathlib import Path
 import hydra
 import numpy as np
 import pandas as pd
-import torch
 from omegaconf import DictConfig, OmegaConf
 
 from ..data.decimate import decimate, decimation_factors
 from ..identify.gradient import fit_gradient
-from ..simulate import simulate
+from ..simulate import simulate_resolved
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -68,11 +67,13 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
     """Simulate every record on its evaluation grid; per-record RMSE and the pooled RMSE.
 
     The pooled value weights each record by its full-rate sample count, so it estimates the RMSE over
-    all original samples (as the BRFD reference numbers are computed).
+    all original samples (as the BRFD reference numbers are computed). The records are simulated at the
+    sub-steps they need, from the fit's (``simulate_resolved``: a held-out condition may make a state stiffer
+    than any training one); the scores say how many (``substeps``).
     """
     data = [decimate(r, factors[r.name]) for r in records]
-    with torch.no_grad():
-        preds = simulate(model, data, method=solver.method, substeps=solver.substeps, backend=solver.backend)
+    preds, substeps, _ = simulate_resolved(model, data, method=solver.method, substeps=solver.substeps,
+                                           backend=solver.backend)
     per, frames = {}, []
     sq, n = 0.0, 0
     for r_full, r, p in zip(records, data, preds):
@@ -83,7 +84,7 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
         n += len(r_full)
         frames.append(pd.DataFrame({"record": r.name, "t": r.t, "x": r.x, "y": r.y, "y_model": y_model}))
     pooled = math.sqrt(sq / n) if n else float("nan")
-    return {"pooled": pooled, "per_record": per}, {r.name: f for r, f in zip(data, frames)}, data
+    return {"pooled": pooled, "per_record": per, "substeps": substeps}, {r.name: f for r, f in zip(data, frames)}, data
 
 
 def _conditions_table(records, keys) -> dict[str, dict]:
@@ -168,7 +169,8 @@ def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_fact
         "conditions": _conditions_table([*train, *held_out], to_plain(cfg.report.condition_columns)),
         "units": {"x": train[0].units.get("x", ""), "y": train[0].units.get("y", "")},
         "fit": fit_info,
-        "evaluate": {"samples_per_cycle": cfg.evaluate.samples_per_cycle, "decimation": eval_factors},
+        "evaluate": {"samples_per_cycle": cfg.evaluate.samples_per_cycle, "decimation": eval_factors,
+                     "substeps": {part: scores[part]["substeps"] for part in ("train", "held_out")}},
         "model": cfg.model.get("name") or model.name,
         "reference": _reference(cfg),
     }

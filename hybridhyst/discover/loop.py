@@ -33,7 +33,7 @@ from .fitting import fit_candidate, polish, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
-from .validation import Validation, improves, parts, predict, record_metrics, rmse_on, within
+from .validation import Validation, improves, parts, record_metrics, rmse_on, simulated, within
 
 __all__ = ["DiscoveryResult", "discover", "information_criterion"]
 
@@ -173,9 +173,11 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  substeps=substeps, **opts)
     splits = {"train": train, "val": val, "test": test}
 
-    def evaluate(m, at):  # predictions of every split (simulated once) and their metrics
-        preds = {s: predict(m, rs, at) for s, rs in splits.items()}
-        return preds, {s: record_metrics(splits[s], preds[s], label_conditions) for s in splits}
+    def evaluate(m, at):  # predictions of every split (simulated once), their metrics and sub-steps
+        runs = {s: simulated(m, rs, at) for s, rs in splits.items()}
+        preds = {s: run[0] for s, run in runs.items()}
+        return preds, {s: {**record_metrics(splits[s], preds[s], label_conditions),
+                           "substeps": runs[s][1]} for s in splits}
 
     opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion}
     fit = polish(model, train, sim, lm_steps, box_factor)
@@ -196,11 +198,12 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     for cond in trend_conditions:
         cond_values.pop(cond)
 
-    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> None:
+    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> bool:
+        """Offer the trends of ``cond`` (of ``effects``' parameters, or all); whether they were accepted."""
         nonlocal fit, ic, val_rmse
         res = fit_trends(fit, train, sim, cond, lm_steps, box_factor, effects)
         if res is None:
-            return
+            return False
         t_fit, chosen = res
         t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
             t_fit.sse, n_train, t_fit.k, criterion)
@@ -217,9 +220,20 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         (steps if accepted else rejected).append(entry)
         if accepted:
             fit, ic, val_rmse = t_fit, t_ic, t_val
+        return accepted
+
+    def tidy() -> None:  # the removals and special cases tried after every accepted change
+        nonlocal fit, ic, val_rmse, removed
+        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
+                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
+        for g in gone:
+            g["after_step"] = len(steps)
+            tried.add(g["effect"])  # a removed or replaced effect is not offered again
+        removed += gone
 
     for cond in trend_conditions:
-        try_trends(cond, "before effects")
+        if try_trends(cond, "before effects"):
+            tidy()
     stopped = "rule"  # the best candidate was not accepted, or none was left
     rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried again at the end)
     for _step in range(int(max_steps)):
@@ -273,12 +287,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                              and information_criterion(f[1].sse, n_train, f[1].k, criterion) < f_ic]
         fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
         ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), score(fit.model, _at(sim, fit))
-        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
-                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
-        for g in gone:
-            g["after_step"] = len(steps)
-            tried.add(g["effect"])  # a removed or replaced effect is not offered again
-        removed += gone
+        tidy()
     else:  # every step accepted an effect: the cap ended the loop, not the rule
         stopped = "max_steps"
     # each added effect against the close calls of its step, on the final model (once; the model has been
@@ -294,7 +303,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     added_keys = set(fit.model.effects) - set(initial.effects)
     if added_keys:  # the added effects' own parameters may depend on the condition (the nominal's had their turn)
         for cond in trend_conditions:
-            try_trends(cond, "after effects", added_keys)
+            if try_trends(cond, "after effects", added_keys):
+                tidy()  # an element that stood in for the trends may have nothing left to do (as after any change)
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None
@@ -343,6 +353,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                      "conditions": conditions if isinstance(conditions, bool) else list(conditions),
                      "backend": backend, "method": method, "substeps": substeps,
                      "substeps_final": final_sim["substeps"],
+                     "substeps_scored": {s: after[s]["substeps"] for s in splits if splits[s]},
                      "leftover": leftover, "validation": validation,
                      "refit": bool(refit and val)},
         "validation": {"kind": validation, "on": score.scored, "rmse_before": val_rmse0, "rmse_after": val_rmse,

@@ -3,8 +3,8 @@
 Three ways (``discover(validation=...)``):
 
 - ``"records"``: the RMSE on the validation records (on the training records when there are none). One
-  simulation per model; the validation records are of whatever kind the user holds out, often the same
-  kind as the training records.
+  simulation per model, at the sub-steps those records need (``simulated``); the validation records are of
+  whatever kind the user holds out, often the same kind as the training records.
 - ``"loco"``: leave one operating condition out. The training records are grouped by their operating
   conditions (records that share every condition value are one group); for each group the model is
   refitted on the other groups (Levenberg–Marquardt from its fitted values, every coordinate free, at its
@@ -31,11 +31,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import torch
 
 from ..analysis.metrics import split_metrics
 from ..data.records import Record
-from ..simulate import simulate
+from ..simulate import simulate_resolved
 from .fitting import polish
 
 __all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "improves", "parts", "predict", "record_metrics",
@@ -83,13 +82,20 @@ def within(new, old, tol: float) -> bool:
     return all(n <= (1 + tol) * o for n, o in zip(_errors(new), _errors(old), strict=True))
 
 
-def predict(model, records, sim: dict) -> list[np.ndarray]:
-    """The model's response to each record (first output channel), simulated with ``sim``."""
+def simulated(model, records, sim: dict) -> tuple[list[np.ndarray], int]:
+    """The model's response to each record (first output channel) and the sub-steps it took: ``sim``'s
+    (the fit's, resolved on its training records) or more, where these records need finer steps
+    (``simulate.simulate_resolved``: a held-out condition may make a state stiffer than any training one)."""
     if not records:
-        return []
-    with torch.no_grad():
-        out = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
-    return [o[:, 0].numpy() for o in out]
+        return [], int(sim["substeps"])
+    out, substeps, _ = simulate_resolved(model, list(records), substeps=sim["substeps"], method=sim["method"],
+                                         backend=sim["backend"])
+    return [o[:, 0].numpy() for o in out], substeps
+
+
+def predict(model, records, sim: dict) -> list[np.ndarray]:
+    """The model's response to each record (first output channel), at the sub-steps they need (``simulated``)."""
+    return simulated(model, records, sim)[0]
 
 
 def record_metrics(records, preds, labels: Sequence[str] | None = None) -> dict:

@@ -220,9 +220,12 @@ class SearchSpace(Box):
         bounds = dict(bounds or {})
         coords = []
         self.sizes: dict[tuple[str, str], int] = {}
+        self.domains: dict[tuple[str, str], ParameterSpec] = {}  # functions whose values the boxes do not bound
         for (key, pname), fn in self.functions.items():
             declared = _coordinates(fn, key, pname)
             self.sizes[(key, pname)] = len(declared)
+            if declared and not any(co.own for co in declared) and specs[(key, pname)].constraint != "real":
+                self.domains[(key, pname)] = specs[(key, pname)]
             names = [f"{key}.{pname}{co.suffix}" for co in declared]
             given = {i: bounds[name] for i, name in enumerate(names) if name in bounds}
             trends = _trend_boxes(declared, fn.condition, factor, condition_ranges, given, refit_trends)
@@ -283,7 +286,10 @@ class SearchSpace(Box):
         """Per-row values for ``simulate(values=...)``: ``X (N, D)`` at ``repeats`` = R record conditions.
 
         Row ``n * R + r`` holds member n at record r. ``conditions`` maps a condition name to ``(R,)``.
-        Differentiable w.r.t. ``X``.
+        Differentiable w.r.t. ``X``. A function of a condition whose coefficients put the parameter outside its
+        domain at a record's condition (a positive stiffness or friction level whose trend crosses zero between
+        the data's levels: the boxes bound coefficients, not values) gives NaN there, so that the member
+        simulates nothing and every search and refit treats it as infinitely costly.
         """
         N, R = X.shape[0], int(repeats)
         cols: dict[tuple[str, str], list] = {key: [None] * k for key, k in self.sizes.items()}
@@ -295,7 +301,11 @@ class SearchSpace(Box):
         for (key, pname), fn in self.functions.items():
             col = cols[(key, pname)]
             coords = torch.stack(col, dim=1) if col else X.new_zeros((N, 0))
-            out.setdefault(key, {})[pname] = fn.evaluate_batch(coords, conditions, R).reshape(N * R)
+            value = fn.evaluate_batch(coords, conditions, R).reshape(N * R)
+            spec = self.domains.get((key, pname))
+            if spec is not None:
+                value = torch.where(spec.admits(value), value, torch.full_like(value, math.nan))
+            out.setdefault(key, {})[pname] = value
         return out
 
     # -- writing back --------------------------------------------------------------------------------

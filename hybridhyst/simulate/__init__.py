@@ -4,6 +4,7 @@ from .api import jacobian_covers as jacobian_covers
 from .api import resolved_substeps as resolved_substeps
 from .api import simulate as simulate
 from .api import simulate_jacobian as simulate_jacobian
+from .api import simulate_resolved as simulate_resolved
 from .fixed import ORDER as ORDER
 
-__all__ = ["ORDER", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian"]
+__all__ = ["ORDER", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]

@@ -12,9 +12,10 @@ from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
 from .inputs import delayed, with_rates
 
-__all__ = ["jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian"]
+__all__ = ["jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
 
 RESOLVED = 1e-3  # relative RMS change of the response under halved steps below which it counts as resolved
+MAX_SUBSTEPS_SCORED = 64  # simulate_resolved's cap: scoring costs one simulation per doubling, a fit hundreds
 
 
 def _model_dtype(model) -> torch.dtype:
@@ -280,7 +281,8 @@ def _outputs(model, states, U, P):
 
 
 def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 16, tol: float = RESOLVED,
-                      refit: Callable[[int], None] | None = None, **kwargs) -> tuple[int, float]:
+                      refit: Callable[[int], None] | None = None, outputs: dict | None = None,
+                      **kwargs) -> tuple[int, float]:
     """Step doubling: the fewest sub-steps per sample, from ``substeps`` up to ``max_substeps``, at which halving
     the step changes the simulated response of ``records`` by at most ``tol`` (RMS of the change over RMS of
     the response). A stiff state (a sharp Bouc–Wen loop, a presliding friction bristle) on a coarse sample grid
@@ -288,13 +290,17 @@ def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 
 
     ``refit(s)``, where given, fits ``model`` on at ``s`` sub-steps (in place): it is called whenever a fitted
     model needs finer steps than it was fitted with, and the check repeated, since the refitted loops may be
-    sharper still. ``kwargs`` go to ``simulate`` (method, backend, input_channels). Returns ``(substeps,
-    change)``: the change at the returned sub-steps (``inf`` where even ``max_substeps`` diverges; the caller
-    says so).
+    sharper still. ``outputs``, where given, receives ``{sub-steps: simulate's outputs}`` of the last
+    simulation at each sub-step count (``simulate_resolved`` keeps the one it returns). ``kwargs`` go to
+    ``simulate`` (method, backend, input_channels). Returns ``(substeps, change)``: the change at the returned
+    sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
     """
     def response(s: int) -> torch.Tensor:
         with torch.no_grad():
-            return torch.cat([y.reshape(-1) for y in simulate(model, records, substeps=s, **kwargs)])
+            out = simulate(model, records, substeps=s, **kwargs)
+        if outputs is not None:
+            outputs[s] = out
+        return torch.cat([y.reshape(-1) for y in out])
 
     def doubled(s: int) -> tuple[int, float]:
         coarse = response(s)
@@ -315,3 +321,23 @@ def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 
         at = s
         s, change = doubled(at)
     return s, change
+
+
+def simulate_resolved(model, records, *, substeps: int = 1, max_substeps: int = MAX_SUBSTEPS_SCORED,
+                      tol: float = RESOLVED, **kwargs) -> tuple[list[torch.Tensor], int, float]:
+    """``records`` simulated at the sub-steps *they* need: step doubling (``resolved_substeps``) from
+    ``substeps``, usually the ones the model was fitted and resolved with, up to ``max_substeps``.
+
+    A model resolved on its training records may need finer steps on others: a held-out operating condition
+    that makes a state stiffer (a friction level that falls, a faster excitation), a coarser sample grid.
+    Simulated at the fit's sub-steps such a record can diverge where the model itself does not; scoring it
+    there would judge the integrator, not the model. Costs one simulation at twice the returned sub-steps
+    besides the one returned (no gradients). ``kwargs`` go to ``simulate``. Returns ``(outputs, substeps,
+    change)``: ``simulate``'s outputs at the returned sub-steps and the change there (above ``tol`` where
+    ``max_substeps`` did not resolve it, ``inf`` where it diverged).
+    """
+    outputs: dict = {}
+    s, change = resolved_substeps(model, records, substeps=substeps, max_substeps=max(int(max_substeps), 1),
+                                  tol=tol, outputs=outputs, **kwargs)
+    return outputs[s], s, change
+

@@ -85,6 +85,17 @@ class ParameterSpec:
     smoothing: bool = False
     signed: bool = False
 
+    def admits(self, values: torch.Tensor) -> torch.Tensor:
+        """Whether each value lies in the parameter's domain: > 0 (positive), ≥ 0 (nonnegative), within
+        ``bounds`` (bounded); a real parameter admits every value. NaN is never admitted."""
+        if self.constraint == "positive":
+            return values > 0
+        if self.constraint == "nonnegative":
+            return values >= 0
+        if self.constraint == "bounded":
+            return (values >= self.bounds[0]) & (values <= self.bounds[1])
+        return values == values
+
 
 def render_unit(template: str, units: dict[str, str] | None) -> str:
     """Render a unit template such as ``"F*s/x"`` with the model's units ({'F': 'Nm', 'x': 'deg'})."""
