@@ -255,8 +255,10 @@ def test_bad_input_is_a_clear_error(float64):
     short = RecordSet([r.slice(stop=8) for r in records])
     with pytest.raises(ValueError, match="discovery"):
         discover(short, base_model(None), split=SPLIT, **FAST)
-    with pytest.raises(ValueError, match="discover conditions: condition 'tension' is not a number in 6 of 6"):
+    with pytest.raises(ValueError, match="discover conditions: no record has a condition 'tension'; numeric"):
         discover(records, base_model(None), split=SPLIT, conditions=["tension"], **FAST)
+    with pytest.raises(ValueError, match=r"no record has a condition 'amplitude' \(did you mean 'amplitude_in'\?\)"):
+        discover(records, base_model(None), split=SPLIT, conditions=["amplitude"], **FAST)
     with pytest.raises(ValueError, match=r"'amplitude_in' takes 1 value\(s\) \[0.5\] on the training"):
         discover(records, base_model(None), split={"held_out": {"amplitude_in": [0.75, 1.0, 1.5]}, "val": None},
                  conditions=["amplitude_in"], **FAST)
@@ -266,7 +268,7 @@ def test_bad_input_is_a_clear_error(float64):
                                                                           "intercept": 0.5, "condition": "tension"}},
                                            "k": {"effect": "linear_stiffness", "k": 2.0}}).double()
     with pytest.raises(ValueError, match=r"the nominal model \(a parameter as a function of a condition\): "
-                                         r"condition 'tension' is not a number"):
+                                         r"no record has a condition 'tension'"):
         discover(records, trended, split=SPLIT, **FAST)
     with pytest.raises(ValueError, match="unknown effect 'dahll'"):
         build_model("constitutive", {"f": {"effect": "dahll"}})

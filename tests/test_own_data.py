@@ -150,7 +150,7 @@ def test_train_runs_with_the_pressure_as_a_network_input(tmp_path):
 
 @pytest.mark.parametrize("extra,expected", [
     (["discover.conditions=[pressure_mpaa]"],
-     "condition 'pressure_mpaa' (did you mean 'pressure_mpa'?) is not a number"),
+     "no record has a condition 'pressure_mpaa' (did you mean 'pressure_mpa'?)"),
     (["split.held_out=[{pressure_mpa: [0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09]}]",
       "discover.conditions=[pressure_mpa]"], "takes 1 value(s) [0.01] on the training records"),
     (["split.held_out=[{pressure_mpa: [0.055]}]"], "held-out condition pressure_mpa=0.055 matches no record"),

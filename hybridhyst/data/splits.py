@@ -167,9 +167,12 @@ def check_conditions(split: Split, names: Sequence[str], what: str, min_train_va
             close = difflib.get_close_matches(str(name), known, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close and close[0] != name else ""
             shown = ", ".join(lacking[:5]) + (f" and {len(lacking) - 5} more" if len(lacking) > 5 else "")
+            usable = [k for k in known if all(_is_numeric(r.conditions.get(k)) for r in every)]
+            if not any(name in r.conditions for r in every):
+                raise ValueError(f"{what}: no record has a condition {name!r}{hint}; numeric conditions of every "
+                                 f"record: {usable}")
             raise ValueError(f"{what}: condition {name!r}{hint} is not a number in {len(lacking)} of {len(every)} "
-                             f"records ({shown}); numeric conditions of every record: "
-                             f"{[k for k in known if all(_is_numeric(r.conditions.get(k)) for r in every)]}")
+                             f"records ({shown}); numeric conditions of every record: {usable}")
         values = _available(parts["training"], name)
         if len(values) < min_train_values:
             raise ValueError(f"{what}: condition {name!r} takes {len(values)} value(s) {values} on the training "
