@@ -246,6 +246,9 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
 
 @pytest.mark.parametrize("app,override,expected", [
     ("fit", "split.selct.tension_lb=30", "did you mean split.select?"),
+    # Hydra's "To append to your config use +split.held_outt=..." would add the misspelt key: left out
+    ("discover", "split.held_outt=[{amplitude_in: [1.0]}]",
+     "Could not override 'split.held_outt' (Key 'held_outt' is not in struct); did you mean split.held_out?"),
     ("fit", "split.held_out={amplitude_in: [0.5]}", "split.held_out holds a list: give one"),
     ("discover", "split.select=[{tension_lb: 30}]",
      "split.select holds a mapping; to give a list instead, delete the key first: '~split.select' '+split.select="),

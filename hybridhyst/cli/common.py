@@ -284,6 +284,8 @@ def _composition_message(exc: Exception) -> str:
         if close and close[0] != str(key):
             full = str(getattr(cause, "full_key", key))
             prefix = full.rsplit(".", 1)[0] + "." if "." in full else ""
+            # a misspelling: Hydra's "To append to your config use +key=..." would add the misspelt key
+            message = re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
             message += f"; did you mean {prefix}{close[0]}?"
     return message
 

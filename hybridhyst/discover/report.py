@@ -221,8 +221,10 @@ def _leftover_sentence(net: dict) -> str:
     if net["explained_share"] <= 0:
         return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers none of the remaining residual "
                 f"variance on the {on} records (its prediction there is worse than none: {share} %).")
+    where = ("training records it was fitted to (no validation records: in sample, an upper bound)" if on == "train"
+             else f"{on} records")
     return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers {share} % of the remaining "
-            f"residual variance on the {on} records.")
+            f"residual variance on the {where}.")
 
 
 def write_discovery(result: DiscoveryResult, out_dir, title: str = "Discovery", unit: str = "") -> Path:
