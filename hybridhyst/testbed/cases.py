@@ -9,7 +9,7 @@ Every case is a ``Case``; ``CASES`` lists them, ``CASE_BY_NAME`` finds one. Cate
 * ``condition``: seed 000's VPPTD law M = c φ̇ + k φ + k₂ φ³ + M_s sgn φ̇ (φ in deg, φ̇ in rad/s, M in Nm)
   with parameters rising with the underpressure (linearly or exponentially) plus one missing effect (in one
   case with a level that rises with the underpressure too); the nominal is ``vpptd_algebraic`` with constant
-  parameters;
+  parameters; and a friction damper whose missing clearance has a level that rises with a coil current;
 * ``clean``: the nominal is the truth's structure: nothing may be added;
 * ``out_of_library``: an effect the library does not have (cogging, friction whose level varies with
   position): nothing may be named, and the loop should flag structure it cannot name.
@@ -365,6 +365,17 @@ def _build_cases() -> list[Case]:
               _vpptd_nominal, VPPTD_SPLIT,
               "k, Ms linear in p (0.65→1.65, 9.5→15); Stribeck excess linear in p too (1.5→6 Nm, "
               "e^{−(φ̇/15°/s)²})", "500"))
+    # a user trial (2026-11-26): a friction damper whose clearance's level rises with a coil current, every test
+    # started with the gap closed; the held-out 2.0 A lies beyond every training current
+    add(_case("clearance~current+start", "condition", [{"clearance"}],
+              [("clearance.r", 0.08, 0.20), ("clearance.q0", -0.08, 0.25)], 0.05,
+              _clearance_current_records,
+              lambda: _damper({"viscous": _visc(0.1), "coulomb": _coul(0.5),
+                               "dahl": {"effect": "dahl", "sigma0": 10.0, "Fc": 2.0}}),
+              {"held_out": {"current_a": [0.9, 2.0]}, "val": {"current_a": [1.5]}},
+              "0.05v + 0.3 sign(v) (exact) + Dahl σ0 30 behind a clearance r 0.08 in whose level 1 + 1.5 I rises "
+              "with the current I (0–2 A), each test started with the gap closed (q0 = −r); nominal viscous + "
+              "Coulomb + Dahl", "200"))
     # ---------------------------------------------------------------- clean controls
     add(_case("clean_friction", "clean", [], [], 0.03,
               lambda: _sine_records("clean_friction", STD, static_law(k=2.0, c=0.3, Fc=0.5), spc=100, cycles=2,
@@ -397,6 +408,27 @@ def _build_cases() -> list[Case]:
               "2x + 0.3v + 0.4 (1 + 0.6 cos(2πx / 0.8 in)) arctan sign: a friction level varying along the stroke; "
               "nominal spring + viscous + Coulomb", "200"))
     return cases
+
+
+def _clearance_current_records(seed: int = 35):
+    """±1 in at 0.5 Hz from x = 0 upwards, 200 samples per cycle, 3 cycles, at seven coil currents I [A]:
+    F = 0.05 v + 0.3 sign(v) + a Dahl element σ0 30 kip/in behind a clearance r 0.08 in, its level 1 + 1.5 I kip
+    both ways, the gap closed on the negative side at the start (q0 = −r: the rig left it there); exact per step
+    on a 20× finer path; 0.05 kip white noise (the user trial's generator, an LSODA integration, rebuilt with the
+    bed's exact operator)."""
+    from ..data.records import Record, RecordSet
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for current in (0.0, 0.3, 0.6, 0.9, 1.2, 1.5, 2.0):
+        level = 1.0 + 1.5 * current
+        gap = clearance_law(0.0, 0.05, r=0.08, sigma0=30.0, Fc_pos=level, Fc_neg=level, q0=-0.08)
+        law = on_fine(lambda tf, sig, gap=gap: gap(tf, sig) + 0.3 * g.sgn(sig.v(tf), "exact"), 20)
+        t = np.arange(601) / 100.0
+        sig = g.sine(1.0, 0.5)
+        out.append(Record(name=f"I{current:.1f}A", t=t, x=sig.x(t), y=law(t, sig) + g.white_noise(len(t), 0.05, rng),
+                          conditions={"current_a": current}, units={"x": "in", "y": "kip"}))
+    return RecordSet(out, "clearance~current+start")
 
 
 def _inertia_records():
