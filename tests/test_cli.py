@@ -81,7 +81,8 @@ def test_fit_tiny_run_writes_report_summary_and_figure(tmp_path, capsys):
     dahl = on_disk["parameters"]["dahl"]
     assert dahl["sigma0"]["unit"] == "kip/in" and dahl["sigma0"]["value"] > 0
     assert summary["fit"]["steps"]["adam"] == 2
-    # each part is simulated at the sub-steps it needs, from the fit's (simulate_resolved)
+    # each part's sub-steps are reported (simulate_resolved, from the fit's; a held-out record that needs more:
+    # tests/test_simulate.py, tests/test_validation.py)
     assert all(s >= summary["fit"]["substeps"] for s in on_disk["evaluate"]["substeps"].values())
     assert set(on_disk["evaluate"]["substeps"]) == {"train", "held_out"}
     assert summary["reference"] is None  # a different protocol than the reference numbers'

@@ -270,6 +270,14 @@ def test_bad_input_is_a_clear_error(float64):
     with pytest.raises(ValueError, match=r"the nominal model \(a parameter as a function of a condition\): "
                                          r"no record has a condition 'tension'"):
         discover(records, trended, split=SPLIT, **FAST)
+    # a trend of the nominal below zero at a training amplitude (c = 0.5 − 1.0 · A < 0 at A = 1): a start no local
+    # refit could leave (it simulates nothing there)
+    below = build_model("constitutive", {"v": {"effect": "viscous", "c": {"kind": "linear", "slope": -1.0,
+                                                                        "intercept": 0.5, "condition": "amplitude_in"}},
+                                         "k": {"effect": "linear_stiffness", "k": 2.0}}).double()
+    with pytest.raises(ValueError, match=r"the nominal model's parameter v.c = -0.5 at amplitude_in=1, frequency_hz=1"
+                                         r".*outside its domain on a training record.*fit_nominal"):
+        discover(records, below, split=SPLIT, **{**FAST, "fit_nominal": False})
     with pytest.raises(ValueError, match="unknown effect 'dahll'"):
         build_model("constitutive", {"f": {"effect": "dahll"}})
 
@@ -317,6 +325,24 @@ def test_trend_per_parameter_is_chosen_by_aicc_over_the_levels():
     assert kind == "exp_growth" and coef["b"] == pytest.approx(40, rel=1e-3)
     assert choose_trend(c[:4], laws["exp_growth"][:4])[0] in ("constant", "linear")  # exponentials from 5 levels
     assert choose_trend(c[:5], laws["exp_growth"][:5])[0] == "exp_growth"
+
+
+def test_a_trend_is_chosen_among_those_its_parameters_domain_admits_at_the_levels():
+    """A nonnegative level rising from zero, convex (a gap or a friction excess that appears with the condition):
+    the least-squares line dips below zero at the lowest level, a start no refit could leave (it simulates
+    nothing there). With the parameter's spec the line is not offered; without it, it is."""
+    from hybridhyst.discover.trends import choose_trend
+    from hybridhyst.physics.parameters import ParameterSpec
+
+    c = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    y = np.array([0.0, 0.1, 0.3, 0.75, 1.3])
+    kind, coef = choose_trend(c, y)
+    assert kind == "linear" and coef["intercept"] == pytest.approx(-0.16)
+    nonnegative = ParameterSpec(0.0, "x", (0.0, 1e6), "nonnegative")
+    kind, coef = choose_trend(c, y, nonnegative)
+    assert kind != "linear"
+    assert kind == "constant" and coef["value"] == pytest.approx(y.mean())
+    assert choose_trend(c, y + 1.0, nonnegative)[0] == "linear"  # a line that stays above zero is still one
 
 
 def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network():

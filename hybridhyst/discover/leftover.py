@@ -26,7 +26,7 @@ from ..identify import fit_gradient
 from ..identify.gradient import record_loss
 from ..nets import MLP
 from ..physics.effects import NeuralEffect
-from ..simulate import simulate
+from ..simulate import simulate, simulate_resolved
 from .candidates import Scales, _placed
 
 __all__ = ["FLAG_SHARE", "LEFTOVER", "neural_leftover", "residual_network", "structure_flagged"]
@@ -119,14 +119,17 @@ def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | Non
     fit = fit_gradient(augmented, list(train), steps=0, lbfgs_steps=int(iterations), progress=progress,
                        method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
 
-    def mse(m, records):
-        preds = simulate(m, list(records), method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+    def mse(m, records, substeps):
+        preds = simulate(m, list(records), method=sim["method"], substeps=substeps, backend=sim["backend"])
         return float(record_loss(preds, list(records)))
 
     with torch.no_grad():
         scored = val or train
-        before, after = mse(model, scored), mse(augmented, scored)
-        train_before = mse(model, train)
+        # the validation records at the sub-steps they need (as the loop scores them), both models alike
+        at = simulate_resolved(model, list(val), substeps=sim["substeps"], method=sim["method"],
+                               backend=sim["backend"])[1] if val else sim["substeps"]
+        before, after = mse(model, scored, at), mse(augmented, scored, at)
+        train_before = mse(model, train, sim["substeps"])
     return {"network": "dynamics", "explained_share": 1.0 - after / max(before, 1e-300),
             "on": "val" if val else "train", "rmse_after_network": math.sqrt(after), "rmse_before": math.sqrt(before),
             "train_share": 1.0 - fit.loss / max(train_before, 1e-300), "evaluations": fit.evaluations,

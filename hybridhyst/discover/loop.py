@@ -24,6 +24,7 @@ import torch
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
+from ..identify.space import outside_domain
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
 from .candidates import Scales, library_candidates
@@ -173,13 +174,19 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  substeps=substeps, **opts)
     splits = {"train": train, "val": val, "test": test}
 
-    def evaluate(m, at):  # predictions of every split (simulated once), their metrics and sub-steps
-        runs = {s: simulated(m, rs, at) for s, rs in splits.items()}
+    def evaluate(m, at):  # predictions of every split (simulated once), their metrics and sub-steps; the training
+        runs = {s: simulated(m, rs, at, resolve=s != "train") for s, rs in splits.items()}  # split at the fit's own
         preds = {s: run[0] for s, run in runs.items()}
         return preds, {s: {**record_metrics(splits[s], preds[s], label_conditions),
                            "substeps": runs[s][1]} for s in splits}
 
     opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion}
+    outside = outside_domain(model, train)
+    if outside:
+        raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "
+                         "(a trend that crosses zero between the data's levels); give values or a trend that stay "
+                         "inside it" + ("" if fit_nominal else ", or let the loop identify the nominal first "
+                                        "(fit_nominal)"))
     fit = polish(model, train, sim, lm_steps, box_factor)
     initial, initial_sim = copy.deepcopy(fit.model), _at(sim, fit)  # "before": the nominal as fitted
     preds_before, before = evaluate(initial, initial_sim)

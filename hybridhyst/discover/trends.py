@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import torch
 
 from ..analysis.loops import fit_trend
-from ..physics.parameters import Constant, ExpDecay, ExpGrowth, ExpRise, Linear, PerCondition
+from ..physics.parameters import Constant, ExpDecay, ExpGrowth, ExpRise, Linear, ParameterSpec, PerCondition
 from .fitting import Fit, polish
 
 __all__ = ["choose_trend", "fit_trends"]
@@ -36,23 +37,30 @@ def _aicc(rss: float, n: int, k: int) -> float:
 EXPONENTIAL = {"exp_growth": ExpGrowth, "exp_rise": ExpRise, "exp_decay": ExpDecay}
 
 
-def choose_trend(c: np.ndarray, y: np.ndarray) -> tuple[str, dict]:
+def choose_trend(c: np.ndarray, y: np.ndarray, spec: ParameterSpec | None = None) -> tuple[str, dict]:
     """The trend of values ``y`` at levels ``c`` with the lowest AICc over the levels: ``("constant",
     {"value"})``, ``("linear", {"slope", "intercept"})`` (from four levels on) or, from five levels on, one
     of seed 002's exponential forms (``analysis.fit_trend``: ``"exp_growth"``, ``"exp_rise"``, ``"exp_decay"`` with
-    ``{"y0", "a", "b"}``)."""
+    ``{"y0", "a", "b"}``). With the parameter's ``spec``, only trends whose values at the levels its domain admits
+    (``ParameterSpec.admits``: a line through a level rising from zero can dip below it at the lowest): a start
+    outside the domain simulates nothing, and no refit could move it (the mean of admitted values always is)."""
     c, y = np.asarray(c, float), np.asarray(y, float)
     n = len(c)
     fits = {"constant": ({"value": float(y.mean())}, float(np.sum((y - y.mean()) ** 2)), 1)}
+    at = {"constant": np.full_like(c, y.mean())}
     slope, intercept = np.polyfit(c, y, 1)
     fits["linear"] = ({"slope": float(slope), "intercept": float(intercept)},
                       float(np.sum((y - (intercept + slope * c)) ** 2)), 2)
+    at["linear"] = intercept + slope * c
     for kind in EXPONENTIAL if n >= MIN_LEVELS_EXPONENTIAL else ():
         try:
             tf = fit_trend(c, y, kind)
         except ValueError:  # did not converge
             continue
         fits[kind] = ({"y0": tf.y0, "a": tf.a, "b": tf.b}, float(np.sum((y - tf(c)) ** 2)), 3)
+        at[kind] = tf(c)
+    if spec is not None:
+        fits = {k: f for k, f in fits.items() if k == "constant" or bool(spec.admits(torch.as_tensor(at[k])).all())}
     scale = float(np.mean(y**2)) or 1.0
     name = min(fits, key=lambda k: _aicc(fits[k][1] + 1e-12 * scale * n, n, fits[k][2]))
     return name, fits[name][0]
@@ -86,7 +94,7 @@ def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_fa
     chosen = {}
     for key, pname in params:
         y = per_fit.model.effects[key].params[pname].values.detach().numpy()
-        kind, coef = choose_trend(np.asarray(levels), y)
+        kind, coef = choose_trend(np.asarray(levels), y, per_fit.model.effects[key].param_specs[pname])
         chosen[f"{key}.{pname}"] = kind
         effect = trended.effects[key]
         dtype = effect.params[pname].value.dtype

@@ -51,7 +51,7 @@ from torch import nn
 from ..data.batch import numeric_conditions
 from ..physics.parameters import FunctionCoordinate, ParameterFunction, ParameterSpec, render_unit
 
-__all__ = ["Box", "Coordinate", "SearchSpace", "condition_ranges", "trend_scale"]
+__all__ = ["Box", "Coordinate", "SearchSpace", "condition_ranges", "outside_domain", "trend_scale"]
 
 
 @dataclass(frozen=True)
@@ -190,6 +190,25 @@ def _coordinates(fn: ParameterFunction, key: str, pname: str) -> list[FunctionCo
         return fn.coordinates()
     except NotImplementedError as err:
         raise ValueError(f"parameter {key}.{pname}: {err}") from None
+
+
+def outside_domain(model: nn.Module, records) -> list[str]:
+    """``"effect.param = value at condition=level"`` for each parameter function of ``model`` (a trend: not a
+    constant, which its box keeps inside) whose value at a record's conditions its parameter's domain does not
+    admit (``ParameterSpec.admits``). A search starting there simulates nothing (``SearchSpace.values``) and no
+    local refit can leave it: the caller says so instead of fitting."""
+    with torch.no_grad():
+        space = SearchSpace(model)
+        conditions = numeric_conditions(records)
+        values = model.evaluate(conditions, len(records))
+    out = []
+    for (key, pname), spec in space.domains.items():
+        v = values[key][pname]
+        bad = (~spec.admits(v)).nonzero().flatten().tolist()
+        if bad:
+            at = ", ".join(f"{c}={float(conditions[c][bad[0]]):g}" for c in conditions) or "every record"
+            out.append(f"{key}.{pname} = {float(v[bad[0]]):.4g} at {at}")
+    return out
 
 
 class SearchSpace(Box):

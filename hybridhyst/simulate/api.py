@@ -331,8 +331,10 @@ def simulate_resolved(model, records, *, substeps: int = 1, max_substeps: int = 
     A model resolved on its training records may need finer steps on others: a held-out operating condition
     that makes a state stiffer (a friction level that falls, a faster excitation), a coarser sample grid.
     Simulated at the fit's sub-steps such a record can diverge where the model itself does not; scoring it
-    there would judge the integrator, not the model. Costs one simulation at twice the returned sub-steps
-    besides the one returned (no gradients). ``kwargs`` go to ``simulate``. Returns ``(outputs, substeps,
+    there would judge the integrator, not the model. Costs one simulation at each sub-step count tried and one at
+    twice the returned count (no gradients): twice the plain simulation's where ``substeps`` already resolve
+    the records, up to about 4 × ``max_substeps`` / ``substeps`` times it for a model that diverges at every
+    step size. ``kwargs`` go to ``simulate``. Returns ``(outputs, substeps,
     change)``: ``simulate``'s outputs at the returned sub-steps and the change there (above ``tol`` where
     ``max_substeps`` did not resolve it, ``inf`` where it diverged).
     """
