@@ -97,14 +97,17 @@ def build_structure(report: dict, nominal):
     return Constitutive({**first, **effects}, units=dict(nominal.units), name="discovered").double()
 
 
-def score(model, records, substeps: int) -> dict:
-    """Pooled RMSE/MAE (``split_metrics``, per record name), and mean measured / simulated force [kip]."""
+def score(model, records, substeps: int, outputs=None) -> dict:
+    """Pooled RMSE/MAE (``split_metrics``, per record name), and mean measured / simulated force [kip];
+    ``outputs``: the records already simulated at ``substeps`` (``simulate``'s list), else simulated here."""
     from hybridhyst.analysis.metrics import split_metrics
     from hybridhyst.simulate import simulate
 
     recs = list(records)
-    with torch.no_grad():
-        out = simulate(model, recs, method=SIM["method"], substeps=substeps, backend=SIM["backend"])
+    out = outputs
+    if out is None:
+        with torch.no_grad():
+            out = simulate(model, recs, method=SIM["method"], substeps=substeps, backend=SIM["backend"])
     preds = [{"condition": r.name, "y": np.asarray(r.y), "y_pred": o[:, 0].numpy(), "warmup": r.warmup}
              for r, o in zip(recs, out)]
     m = split_metrics(preds)

@@ -125,11 +125,14 @@ def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | Non
 
     with torch.no_grad():
         scored = val or train
-        # the validation records at the sub-steps they need (as the loop scores them), both models alike
-        at = simulate_resolved(model, list(val), substeps=sim["substeps"], method=sim["method"],
-                               backend=sim["backend"])[1] if val else sim["substeps"]
-        before, after = mse(model, scored, at), mse(augmented, scored, at)
         train_before = mse(model, train, sim["substeps"])
+        if val:  # the validation records at the sub-steps they need (as the loop scores them), both models alike
+            out, at, _ = simulate_resolved(model, list(val), substeps=sim["substeps"], method=sim["method"],
+                                           backend=sim["backend"])
+            before = float(record_loss(out, list(val)))
+        else:
+            at, before = sim["substeps"], train_before
+        after = mse(augmented, scored, at)
     return {"network": "dynamics", "explained_share": 1.0 - after / max(before, 1e-300),
             "on": "val" if val else "train", "rmse_after_network": math.sqrt(after), "rmse_before": math.sqrt(before),
             "train_share": 1.0 - fit.loss / max(train_before, 1e-300), "evaluations": fit.evaluations,

@@ -205,12 +205,22 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     for cond in trend_conditions:
         cond_values.pop(cond)
 
-    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> bool:
-        """Offer the trends of ``cond`` (of ``effects``' parameters, or all); whether they were accepted."""
+    def tidy() -> None:  # the removals and special cases tried after every accepted change
+        nonlocal fit, ic, val_rmse, removed
+        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
+                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
+        for g in gone:
+            g["after_step"] = len(steps)
+            tried.add(g["effect"])  # a removed or replaced effect is not offered again
+        removed += gone
+
+    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> None:
+        """Offer the trends of ``cond`` (of ``effects``' parameters, or all); once accepted, ``tidy``: an element
+        that stood in for them may have nothing left to do (as after any change)."""
         nonlocal fit, ic, val_rmse
         res = fit_trends(fit, train, sim, cond, lm_steps, box_factor, effects)
         if res is None:
-            return False
+            return
         t_fit, chosen = res
         t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
             t_fit.sse, n_train, t_fit.k, criterion)
@@ -227,20 +237,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         (steps if accepted else rejected).append(entry)
         if accepted:
             fit, ic, val_rmse = t_fit, t_ic, t_val
-        return accepted
-
-    def tidy() -> None:  # the removals and special cases tried after every accepted change
-        nonlocal fit, ic, val_rmse, removed
-        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
-                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
-        for g in gone:
-            g["after_step"] = len(steps)
-            tried.add(g["effect"])  # a removed or replaced effect is not offered again
-        removed += gone
+            tidy()
 
     for cond in trend_conditions:
-        if try_trends(cond, "before effects"):
-            tidy()
+        try_trends(cond, "before effects")
     stopped = "rule"  # the best candidate was not accepted, or none was left
     rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried again at the end)
     for _step in range(int(max_steps)):
@@ -310,8 +310,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     added_keys = set(fit.model.effects) - set(initial.effects)
     if added_keys:  # the added effects' own parameters may depend on the condition (the nominal's had their turn)
         for cond in trend_conditions:
-            if try_trends(cond, "after effects", added_keys):
-                tidy()  # an element that stood in for the trends may have nothing left to do (as after any change)
+            try_trends(cond, "after effects", added_keys)
     model, final_sim = fit.model, _at(sim, fit)
     preds_after, after = evaluate(model, final_sim)
     refitted = None
