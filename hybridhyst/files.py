@@ -1,4 +1,5 @@
-"""Files a run writes: its run directory, atomic writes (temp file + rename) and plain JSON.
+"""Files a run writes and reads: atomic writes (temp file + rename), plain JSON, weights-only loading (the run
+directory itself: ``hybridhyst.runs``).
 
 Below every package that writes results (apps, reports, studies, discovery), so none of them reaches up into
 ``cli`` for it. An interrupted run never leaves a half-written file that a report would read.
@@ -17,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-__all__ = ["atomic_write", "jsonable", "prepare_run_dir", "run_dir_path", "write_json"]
+__all__ = ["atomic_write", "jsonable", "load_weights", "not_weights", "write_json"]
 
 
 @contextlib.contextmanager
@@ -75,21 +76,21 @@ def write_json(path: Path | str, obj) -> Path:
     return atomic_write(path, json.dumps(jsonable(obj), indent=2) + "\n")
 
 
-def run_dir_path(cfg) -> Path:
-    """The run directory of a Hydra config: Hydra's output dir under ``@hydra.main``, else ``cfg.run_dir``,
-    else the cwd (nothing is created)."""
-    from hydra.core.hydra_config import HydraConfig
+def not_weights(path: Path | str, exc: Exception) -> ValueError:
+    """The error for a file that ``torch.load(weights_only=True)`` refused: it holds objects other than tensors
+    and plain values, which unpickling would have to run as code."""
+    detail = " ".join(str(exc).split())[:200]
+    return ValueError(f"{path} holds objects other than tensors, numbers and strings, which loading would have to run "
+                      f"as code: not loaded (a file a run reads is data, never code); give a checkpoint or model.pt "
+                      f"written by hybridhyst ({detail})")
 
-    if HydraConfig.initialized():
-        return Path(HydraConfig.get().runtime.output_dir)
-    return Path(cfg.get("run_dir") or os.getcwd())
 
+def load_weights(path: Path | str):
+    """``torch.load(path, weights_only=True)`` on the CPU: tensors and plain containers only, never code; a file
+    that holds anything else is a ``ValueError`` (``not_weights``)."""
+    import pickle
 
-def prepare_run_dir(cfg) -> Path:
-    """``run_dir_path(cfg)``, created, with the resolved config written there as ``config.yaml``."""
-    from omegaconf import OmegaConf
-
-    path = run_dir_path(cfg)
-    path.mkdir(parents=True, exist_ok=True)
-    atomic_write(path / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
-    return path
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as exc:
+        raise not_weights(path, exc) from None

@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import re
+import shlex
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 import scipy.io
+import test_trust_data as trust
 
-from hybridhyst.data import Record, RecordSet, load_builtin, read, read_mat, read_npz, read_table
+from hybridhyst.data import Record, RecordSet, load_builtin, read, read_mat, read_npz, read_table, tables
+from hybridhyst.data.decimate import decimation_factors
+from hybridhyst.data.scales import check_scales
 
 REPO = Path(__file__).parents[1]
 SHARED = REPO.parent / "shared"
@@ -85,11 +91,12 @@ def test_parquet_npz_mat_and_dispatch(tmp_path):
 
 
 def test_npz_record_placeholder_and_matrix_columns(tmp_path):
-    np.savez(tmp_path / "bw.npz", train_u=np.ones(8), train_y=np.zeros(8), test_u=np.ones(5), test_y=np.ones(5))
+    np.savez(tmp_path / "bw.npz", train_u=np.sin(np.arange(8.0)), train_y=np.zeros(8), test_u=np.arange(5.0),
+             test_y=np.ones(5))
     sets = read_npz(tmp_path / "bw.npz", time=None, fs=750.0, input="{record}_u", output="{record}_y")
     assert sets.names == ["train", "test"] and len(sets["test"]) == 5
     assert sets["train"].t[-1] == pytest.approx(7 / 750)
-    data = np.column_stack([np.arange(6.0), np.ones(6), np.arange(6.0) ** 2])
+    data = np.column_stack([np.arange(6.0), np.cos(np.arange(6.0)), np.arange(6.0) ** 2])
     np.savez(tmp_path / "m.npz", data=data, p=0.05)
     r = read_npz(tmp_path / "m.npz", time="data[0]", input="data[1]", output="data[2]", conditions=["p"])[0]
     np.testing.assert_array_equal(r.y, data[:, 2])
@@ -355,3 +362,120 @@ def test_with_noise_is_the_one_noise_injection():
     assert rec.with_noise(0.0, 1) is rec
     with pytest.raises(ValueError, match="record 'r': noise sd must be a non-negative"):
         rec.with_noise(-0.1, 0)
+
+
+def test_the_trust_matrix_lists_at_least_36_data_mistakes():
+    assert len(trust.CASES) >= 36
+
+
+# -- data mistakes (tests/test_trust_data.py): the fixes the messages quote work -----------------------------
+def _quoted_override(message: str) -> dict:
+    """The ``"data.read_options=..."`` override of a message, split as the shell does and parsed as Hydra does."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    text = re.search(r'on the command line: ("data\.read_options=[^"]*")', message).group(1)
+    (word,) = shlex.split(text)
+    return OverridesParser.create().parse_override(word).value()
+
+
+@pytest.mark.parametrize("case", ["utf16-with-byte-order-mark", "utf16-without-byte-order-mark", "latin1-not-utf8",
+                                  "semicolon-separated", "semicolon-separated-decimal-comma",
+                                  "decimal-comma-in-tab-separated"])
+def test_the_quoted_read_option_reads_the_file(case, tmp_path):
+    trust.CASES[case].make(tmp_path)
+    path = next(tmp_path.iterdir())
+    columns = {**trust.COLUMNS, "input": "angle_°"} if case == "latin1-not-utf8" else trust.COLUMNS
+    with pytest.raises(ValueError) as err:
+        read_table(path, **columns)
+    options = _quoted_override(str(err.value))
+    if case == "utf16-without-byte-order-mark":
+        options = {"encoding": "utf-16-le"}  # without a mark the byte order must be named
+    records = read_table(path, **columns, read_options=options)
+    assert records.names == [f"p{p:.2f}" for p in trust.PRESSURES]
+    assert records[2].x.max() == pytest.approx(10, rel=0.01)
+
+
+def test_a_larger_limit_reads_the_file_in_chunks(tmp_path, monkeypatch):
+    trust.loops().to_csv(tmp_path / "loops.csv", index=False)
+    whole = read_table(tmp_path / "loops.csv", **trust.COLUMNS)
+    monkeypatch.setattr(tables, "CHUNK_MB", 0.001)
+    monkeypatch.setattr(tables, "CHUNK_ROWS", 64)
+    chunked = read_table(tmp_path / "loops.csv", **trust.COLUMNS, max_file_mb=1)
+    assert chunked.names == whole.names
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_array_equal(a.y, b.y)
+
+
+def test_a_configured_frequency_condition_thins_per_cycle(tmp_path):
+    frame = trust.loops().assign(freq_hz=0.8)
+    frame.to_csv(tmp_path / "f.csv", index=False)
+    records = read_table(tmp_path / "f.csv", **{**trust.COLUMNS, "conditions": ["pressure_mpa", "freq_hz"]})
+    assert set(decimation_factors(records, 25, 1, "freq_hz").values()) == {10}  # 200 Hz / (0.8 Hz · 25)
+    assert set(decimation_factors(records, 25, 3, None).values()) == {3}
+    assert set(decimation_factors(records, 25, 3, "none").values()) == {3}  # the experiments' spelling
+    plain = read_table(tmp_path / "f.csv", **trust.COLUMNS)  # no frequency condition at all: downsample, no error
+    assert set(decimation_factors(plain, 25, 2).values()) == {2}
+
+
+# -- data mistakes: the rules never fire on legitimate data -------------------------------------------------
+@pytest.mark.parametrize("name", ["brfd", "vpptd", "boucwen"])
+def test_bundled_data_load_without_error_or_warning(name):
+    options = {"pressures": [0.01, 0.05, 0.09], "cycles": 1, "samples_per_cycle": 60} if name == "vpptd" else {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        records = load_builtin(name, **options)
+        check_scales(records, "column 't'", "column 'x'")
+        stripped = [Record(r.name, r.t, r.x, r.y) for r in records]  # without the conditions that explain
+        check_scales(stripped, "column 't'", "column 'x'")
+    assert len(records) >= 3
+
+
+def test_large_spikes_impulses_and_decays_are_not_absurd(tmp_path):
+    t = np.arange(2000) / 1000.0
+    spike = np.sin(2 * np.pi * t)
+    spike[[500, 501, 1500]] = [5e3, -2e3, 1e4]  # a few samples 10^4 times the signal (a dropout or a shock)
+    impulse = np.zeros_like(t)
+    impulse[100] = 1.0
+    decay = np.exp(-t / 0.01) * np.cos(2 * np.pi * 50 * t)  # free decay to ~1e-87 of its start
+    quantised = np.round(np.sin(2 * np.pi * t) * 2**-23, 30) + np.where(t < 0.001, 1.0, 0.0)  # 24-bit range
+    roundoff = 1e-16 * np.sin(2 * np.pi * 7 * t)  # an impulse among round-off: 99 % of the channel near 1e-16
+    roundoff[[300, 301]] = [1.0, -0.5]
+    free = np.zeros_like(t)  # a free vibration: no input at all, the response decays from where it was let go
+    for x, y in ((spike, spike), (impulse, decay), (t + 1.0, quantised), (roundoff, decay), (free, decay)):
+        frame = pd.DataFrame({"t": t, "x": x, "y": y})
+        frame.to_csv(tmp_path / "r.csv", index=False)
+        record = read_table(tmp_path / "r.csv")[0]
+        np.testing.assert_allclose(record.y, y, rtol=1e-12, atol=0)
+
+
+def test_sample_rates_and_amplitudes_that_conditions_explain_load(tmp_path):
+    """A sweep sampled at 64 samples per cycle (0.1 to 100 Hz: sample intervals 1000× apart) and amplitudes
+    57× apart load when the records carry their frequency and amplitude; BRFD-like amplitudes (0.5/1/1.5)
+    load without any condition."""
+    parts = []
+    for f, amp in ((0.1, 10.0), (1.0, 10.0), (10.0, 10.0), (100.0, 10.0), (100.0, 0.1745)):
+        t = np.arange(128) / (64 * f)
+        parts.append(pd.DataFrame({"record": f"f{f}_a{amp}", "t": t, "x": amp * np.sin(2 * np.pi * f * t),
+                                   "y": np.cos(2 * np.pi * f * t), "frequency_hz": f, "amplitude_deg": amp}))
+    pd.concat(parts).to_csv(tmp_path / "sweep.csv", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(read_table(tmp_path / "sweep.csv", record="record",
+                              conditions=["frequency_hz", "amplitude_deg"])) == 5
+        frame = trust.loops()
+        for p, amp in zip(trust.PRESSURES, (0.5, 1.0, 1.5, 1.0, 0.5), strict=True):
+            frame.loc[frame.pressure_mpa == p, "angle_deg"] *= amp / 10
+        frame.to_csv(tmp_path / "amps.csv", index=False)
+        assert len(read_table(tmp_path / "amps.csv", **trust.COLUMNS)) == 5
+
+
+def test_a_unit_factor_among_varied_records_is_a_warning(tmp_path):
+    """Others that vary (amplitudes 6 to 15 deg) and one record about 57× below all of them: a warning that
+    names the record and column, not an error (a much smaller test may be real)."""
+    frame = trust.loops()
+    for p, amp in zip(trust.PRESSURES, (6.0, 10.0, 15.0, 8.0, 10.0 / 57.3), strict=True):
+        frame.loc[frame.pressure_mpa == p, "angle_deg"] *= amp / 10
+    frame.to_csv(tmp_path / "loops.csv", index=False)
+    with pytest.warns(UserWarning, match=r"record 'p0.09'.*input column 'angle_deg' in rad, not deg\?"):
+        records = read_table(tmp_path / "loops.csv", **trust.COLUMNS)
+    assert len(records) == 5

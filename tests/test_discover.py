@@ -462,3 +462,93 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     many = Constitutive({"spring": LinearStiffness(k=1.0), "dahl": Dahl(sigma0=5.0, Fc=1.0),
                          "lugre": LuGre(sigma0=5.0, Fc=1.0, Fs=1.2, vs=0.1)}).double()
     assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
+
+
+def _swap_case():
+    """F = x + 0.8x³ + 0.2v + 0.4 arctan sign with a hardening Bouc–Wen (γ < 0) playing the cubic spring: its
+    special cases (Dahl) cannot replace it, the finalist it beat when it was added (the cubic spring) can."""
+    from hybridhyst.discover.fitting import polish
+    from hybridhyst.discover.validation import rmse_on
+    from hybridhyst.physics.effects import BoucWenHysteresis, Coulomb, LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+
+    rng = np.random.default_rng(0)
+    records = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0, 1 / 100)
+        x, v = -amp * np.cos(2 * np.pi * t), 2 * np.pi * amp * np.sin(2 * np.pi * t)
+        y = x + 0.8 * x**3 + 0.2 * v + 0.4 * (2 / np.pi) * np.arctan(v / 0.01) + 0.01 * rng.standard_normal(len(t))
+        records.append(Record(f"a{amp}", t, x, y, conditions={"amplitude_in": amp}))
+    model = Constitutive({"spring": LinearStiffness(k=1.0), "viscous": Viscous(c=0.2),
+                          "coulomb": Coulomb(Fc=0.4, v_s=0.01, fixed=["v_s"]),
+                          "bouc_wen": BoucWenHysteresis(alpha=0.0, k=0.3, k1=0.0, D=1.0, A=1.0, beta=0.0, gamma=-0.3,
+                                                        n=2.0, fixed=["alpha", "k1", "D", "A"])}).double()
+    sim = {"backend": "fast", "method": "rk4", "substeps": 1}
+    fit = polish(model, records, sim, 25, 10.0)
+    n = sum(len(r) for r in records)
+    return fit, records, sim, n, information_criterion(fit.sse, n, fit.k, "bic"), rmse_on(fit.model, records, sim)
+
+
+def test_a_swap_for_a_runner_up_is_recorded_and_reported_as_a_swap_not_a_special_case(float64):
+    """Bouc–Wen is not among the cubic spring's special cases, nor the cubic spring among Bouc–Wen's: the loop's
+    final pass swapped it for a close runner-up. The change records why (``replacement``) and the report says
+    "swapped for", never "replaced by its special case" (before: "lugre replaced by its special case bouc_wen")."""
+    from hybridhyst.discover.report import change_sentence
+    from hybridhyst.discover.selection import simplify
+    from hybridhyst.discover.validation import rmse_on
+
+    fit, records, sim, n, ic, val = _swap_case()
+    opts = {"lm_steps": 25, "box_factor": 10.0, "margin": 0.02, "criterion": "bic"}
+    _, _, _, changes = simplify(fit, records, sim, Scales.of(records), n, opts, ic, val,
+                                lambda m, s: rmse_on(m, records, s), rivals={"bouc_wen": ["cubic_stiffness"]})
+    assert [(c["effect"], c["by"], c["replacement"]) for c in changes] == [("bouc_wen", ["cubic_stiffness"],
+                                                                           "rival_swap")]
+    text = change_sentence({**changes[0], "after_step": 2}, "validation", "kip")
+    assert "**bouc_wen** swapped for cubic_stiffness" in text and "special case cubic" not in text, text
+    special = {"effect": "stribeck", "by": ["coulomb"], "replacement": "special_case", "after_step": 1,
+               "val_rmse_before": 0.5, "val_rmse_after": 0.49}
+    assert "**stribeck** replaced by its special case coulomb after step 1" in change_sentence(special, "validation",
+                                                                                              "kip")
+    removed = {**special, "by": [], "replacement": None}
+    assert "removed: its contribution vanished" in change_sentence(removed, "validation", "kip")
+
+
+def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_discovery_json(float64, tmp_path):
+    """A test record the models cannot be simulated on (its sample interval far beyond the oscillator's explicit
+    stability limit) is named with the sample it diverged from, in report.md and discovery.json, never dropped
+    behind a "—"; ``check_discovery`` makes it the app's error, or a warning with keep_going."""
+    from hybridhyst.analysis.finite import DivergenceError
+    from hybridhyst.discover.report import check_discovery, diverged_records
+    from hybridhyst.physics import build_model
+
+    def oscillator():
+        return build_model(structure="oscillator", units={"x": "m", "F": "N", "u": "N", "t": "s"}, mass=2.0,
+                           fixed=["drive_gain"], effects={"viscous": {"effect": "viscous", "c": 10.0},
+                                                          "stiffness": {"effect": "linear_stiffness", "k": 1e6}})
+
+    def record(name, amp, dt, n):
+        t = np.arange(n) * dt
+        u = 1e3 * amp * np.sin(2 * np.pi * (5.0 if dt < 0.1 else 0.01) * t)
+        if dt < 0.1:
+            with torch.no_grad():
+                y = simulate(oscillator(), u[None], t=t, substeps=8)[0, :, 0].numpy()
+        else:  # quasi-static: no explicit scheme resolves ω·dt = 707 at any sub-steps scoring tries
+            y = u / 1e6
+        return Record(name, t, u, y, conditions={"amp": amp}, units={"t": "s", "x": "N", "y": "m"})
+
+    records = RecordSet([record("fine_a", 1.0, 1e-3, 300), record("fine_b", 2.0, 1e-3, 300),
+                         record("coarse", 9.0, 1.0, 40)], "oscillator")
+    result = discover(records, oscillator(), candidates=["cubic_stiffness"], split={"held_out": {"amp": [9.0]}},
+                      conditions=False, max_steps=1, lm_steps=3, fit_nominal=False, start_states=False, progress=False)
+    (after,) = diverged_records(result, "after")
+    assert (after.record, after.split) == ("coarse", "test") and 0 < after.sample < 40
+    write_discovery(result, tmp_path, unit="m")
+    report = (tmp_path / "report.md").read_text()
+    assert f"**The discovered model's simulation diverged** on 1 record: coarse (test) from sample {after.sample}" \
+        in report
+    assert json.loads((tmp_path / "discovery.json").read_text())["diverged"]["after"][0]["record"] == "coarse"
+    with pytest.raises(DivergenceError, match=r"diverged on 1 of 3 records: 'coarse' \(test\) from sample"):
+        check_discovery(result)
+    said = []
+    assert check_discovery(result, keep_going=True, warn=said.append)[0].record == "coarse"
+    assert said and said[0].startswith("warning: the discovered model's simulation diverged")

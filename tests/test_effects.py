@@ -461,3 +461,48 @@ def test_neutral_effect_changes_nothing_and_still_learns(cls):
         grads = torch.autograd.grad(y.square().sum(), [raw(effect, n) for n in neutral])
         for pname, grad in zip(neutral, grads, strict=True):
             assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{pname}: gradient {grad} at neutral ({name})"
+
+
+# -- values outside a parameter's domain are refused where the effect is built, naming it ---------------------------
+@pytest.mark.parametrize("key,cfg,expected", [
+    ("viscous", {"effect": "viscous", "c": -6.7}, "effect 'viscous' (viscous): parameter c (viscous coefficient) "
+     "needs a value >= 0, got -6.7"),
+    ("friction", {"effect": "coulomb", "Fc": 1.0, "v_s": -0.05}, "effect 'friction' (coulomb): parameter v_s"),
+    # a fixed value is a value too: a negative smoothing width flips the friction's sign
+    ("coulomb", {"effect": "coulomb", "v_s": -0.05, "fixed": ["v_s"]}, "needs a value > 0, got -0.05"),
+    ("spring", {"effect": "linear_stiffness", "k": -1.0}, "parameter k (linear stiffness) needs a value >= 0"),
+    ("hysteresis", {"effect": "bouc_wen", "k": -4.0}, "parameter k (stiffness"),
+    ("hysteresis", {"effect": "bouc_wen", "A": -1.0}, "parameter A (hysteretic gain) needs a value >= 0"),
+    ("dahl", {"effect": "dahl", "sigma0": 0.0}, "parameter sigma0 (presliding (bristle) stiffness) needs a value > 0"),
+    ("lugre", {"effect": "lugre", "Fs": -2.0}, "parameter Fs"),
+    ("viscous", {"effect": "viscous", "c": {"kind": "per_condition", "levels": [1, 2], "values": [0.1, -0.2],
+                                            "condition": "p"}}, "got -0.2"),
+    ("viscous", {"effect": "viscous", "c": "abc"}, "parameter c needs a number or a parameter function"),
+    ("viscous", {"effect": "viscous", "cc": 1.0}, "has no parameter(s) ['cc'] (did you mean c for cc?)"),
+])
+def test_a_value_outside_the_parameters_domain_is_refused_naming_effect_and_parameter(key, cfg, expected):
+    from hybridhyst.physics import build_model
+
+    with pytest.raises(ValueError) as err:
+        build_model(effects={key: cfg})
+    assert expected in str(err.value), err.value
+
+
+def test_signed_values_the_physics_allows_are_accepted():
+    """A softening cubic stiffness, Bouc–Wen shape parameters, an asymmetry and a trend with a negative slope whose
+    value stays positive over the data: the check is on a parameter's value, not on every coefficient."""
+    from hybridhyst.physics import build_model
+    from hybridhyst.physics.compositions import boucwen_benchmark
+
+    model = build_model(effects={
+        "cubic": {"effect": "cubic_stiffness", "k3": -0.5},
+        "hysteresis": {"effect": "bouc_wen", "beta": -1.0, "gamma": -2.5},
+        "friction": {"effect": "asymmetric_coulomb", "Fc": 1.0, "dF": -0.3},
+        "viscous": {"effect": "viscous", "c": {"kind": "linear", "slope": -1.0, "intercept": 0.2,
+                                               "condition": "pressure_mpa"}},
+    })
+    values = model.effects["viscous"].evaluate({"pressure_mpa": torch.tensor([0.05, 0.09])}, 2)["c"]
+    assert torch.all(values > 0)
+    assert float(boucwen_benchmark(delta=-1.1).effects["hysteresis"].params["gamma"].value.detach()) < 0
+    with pytest.raises(ValueError, match=r"parameter 'mass or inertia' needs a value > 0, got -2"):
+        boucwen_benchmark(m=-2.0)

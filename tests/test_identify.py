@@ -327,6 +327,38 @@ def test_a_trend_that_leaves_its_parameters_domain_at_a_records_condition_simula
     assert math.isfinite(float(cost[0])) and not math.isfinite(float(cost[1]))
 
 
+def test_finite_difference_jacobian_at_a_domain_edge_is_one_sided(float64):
+    """Seed 001's study ended 'the output Jacobian at the optimum is not finite' where a fitted viscous trend
+    reached 0 at one pressure: the central difference's lower side left c's domain (NaN there). There the
+    difference is one-sided on the finite side and equals the exact derivative; where the point itself does
+    not simulate, the Jacobian stays NaN and the Fisher analysis still refuses it."""
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    c = {"kind": "linear", "slope": 4.0, "intercept": -1.0, "condition": "pressure_mpa"}  # c = 0 at p = 0.25
+    space = SearchSpace(vpptd_algebraic(c=c).double())
+    t = np.linspace(0, 2, 200)
+    records = [Record(name=f"p{p}", t=t, x=np.sin(np.pi * t), y=np.zeros_like(t), conditions={"pressure_mpa": p},
+                      units={"t": "s", "x": "deg", "y": "Nm"}) for p in (0.25, 0.5, 0.75)]
+    problem = RecordsProblem(space, records, method="rk4", substeps=1, backend="reference")
+    x = space.initial()
+    assert float(space.values(x[None], {"pressure_mpa": torch.tensor([0.25])}, 1)["viscous"]["c"][0]) == 0.0
+    fd = output_jacobian(problem.predict, x, method="fd")
+    exact = output_jacobian(problem.predict, x, method="autograd")
+    assert torch.isfinite(fd).all() and torch.allclose(fd, exact, rtol=1e-5, atol=1e-6)
+    assert torch.allclose(fd[:, :2], exact[:, :2], rtol=1e-6, atol=1e-8)  # c's coefficients: one-sided at p = 0.25
+    assert fisher_analysis(fd, x, space.names, sigma=0.1, log=space.log).eigenvalues[0] > 0
+
+    def edge(X):  # a response defined for X0 >= 0 only
+        return torch.where(X[:, :1] >= 0, 3 * X[:, :1] + X[:, 1:] * torch.arange(1.0, 4.0), math.nan)
+
+    J = output_jacobian(edge, torch.tensor([0.0, 1.0]), method="fd")
+    assert torch.allclose(J, torch.tensor([[3.0, 1.0], [3.0, 2.0], [3.0, 3.0]]), rtol=1e-6)
+    J = output_jacobian(edge, torch.tensor([-1e-3, 1.0]), method="fd")  # the point itself outside: stays NaN
+    assert torch.isnan(J[:, 0]).all()
+    with pytest.raises(ValueError, match="not finite"):
+        fisher_analysis(J, torch.tensor([-1e-3, 1.0]), ["a", "b"], sigma=0.1)
+
+
 @pytest.mark.parametrize("power,lo,hi,span", [(1, 0.01, 0.09, 0.08), (2, -1.0, 2.0, 4.0), (2, -3.0, -1.0, 8.0),
                                                (3, -1.0, 2.0, 9.0), (1, 5.0, 5.0, 5.0)])
 def test_trend_scale_is_the_value_over_the_change_of_the_power_across_the_data(power, lo, hi, span):

@@ -76,8 +76,8 @@ def test_a_network_is_written_as_its_form_and_loaded_with_its_weights():
                            conditions={"current": (0.3, 0.1)}).double()
     base.effects["dahl"].params["sigma0"] = NeuralFunction(2.0, "current", hidden=4)
     model = base.augmented({"net": net})
-    for p in model.parameters():  # non-zero weights everywhere, so an unloaded copy differs
-        p.data.add_(0.05 * torch.randn_like(p))
+    for p in model.parameters():  # non-zero weights everywhere, so an unloaded copy differs (a positive shift keeps
+        p.data.add_(0.05 * torch.rand_like(p))  # every physical parameter in its domain: c, σ0, Fc >= 0)
     again = _rebuilt(model)
     assert not torch.allclose(_response(again), _response(model))
     again.load_state_dict(model.state_dict())

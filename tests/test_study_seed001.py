@@ -64,15 +64,22 @@ def test_reduced_study_identifies_nbr_and_reproduces_table2_and_the_forced_rig(t
     for name, freqs in on_disk["free_vibration"]["NBR"].items():
         assert all(low - 0.03 <= f <= high + 0.03 for f in freqs), (name, freqs)
 
-    # forced rig: vacuum shrinks the damper's twist (§5.2); the identified model follows Table 1's
+    # forced rig: vacuum shrinks the damper's twist (§5.2); the identified model follows Table 1's inside the fitted
+    # range. At 0 MPa both evaluate their polynomials of p outside it (the results say so), and the rig runs near
+    # resonance there: an identified law as good on the loops may respond quite differently (φ₂ 12° against 37°
+    # once c may take either sign), so there it must only be finite
     rows = {r["model"]: r for r in on_disk["forced_step"]}
     t1, fit = rows["Table 1"], rows["identified"]
     assert t1["twist at 0.09 MPa [deg]"] < 0.7 * t1["twist at 0 MPa [deg]"]
     for key in t1:
         if key.startswith(("twist", "φ₂")):
-            assert fit[key] == pytest.approx(t1[key], rel=0.05), key
+            if "at 0 MPa" in key:
+                assert 0 < fit[key] < 90, key
+            else:
+                assert fit[key] == pytest.approx(t1[key], rel=0.05), key
     results = (tmp_path / "results.md").read_text()
     assert "Table 2" in results and "forced.png" in results
+    assert "p = 0 MPa lies outside Table 1's fitted range 0.01–0.09 MPa" in results
     assert (tmp_path / "loops.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -158,3 +165,33 @@ def test_free_vibration_frequency_ignores_the_creep_to_rest():
     assert free_vibration_frequency(clean, dt) == pytest.approx(0.4, abs=0.01)
     with pytest.raises(ValueError, match="min_swing"):
         free_vibration_frequency(x, dt, method="turning_points", min_swing=1.5)
+
+
+@pytest.mark.slow
+def test_full_study_identifies_every_mixture_and_reproduces_table2_and_the_forced_rig(tmp_path):
+    """The README's command (all five mixtures, five fitted pressures, 60 s forced runs; about 3 minutes). Issue
+    36: it ended in the Fisher analysis ('the output Jacobian at the optimum is not finite') while the reduced
+    run passed: ABS's Table 1 c < 0 lies outside the viscous effect's domain, so the search could not reach it
+    and stopped where c(0.09 MPa) = 0, the domain's edge."""
+    summary = study_cli.run(_compose(tmp_path))
+    noise = summary["noise_sd"]
+    assert set(summary["identification"]) == set(TABLE1)
+    for mixture, ident in summary["identification"].items():
+        numbers = [ident["rmse_fit"], *ident["rmse_vs_table1"], *ident["peak_difference_pct"]]
+        assert all(math.isfinite(v) for v in numbers), mixture
+        assert ident["rmse_fit"] <= 1.15 * noise, mixture  # to the noise floor (ABS 1.1: its α is cubic in p)
+        assert max(ident["rmse_vs_table1"]) < 1.5 * noise, mixture
+        assert max(abs(d) for d in ident["peak_difference_pct"]) < 2.0, mixture
+        assert ident["coordinates"] == 21 and 10 <= ident["identifiable"] <= 21, mixture
+        low, high = TABLE2_HZ[mixture]
+        for name, freqs in summary["free_vibration"][mixture].items():
+            if "FFT" in name:
+                assert all(low - 0.05 <= f <= high + 0.05 for f in freqs), (mixture, name, freqs)
+    c_abs = np.polyval(summary["identification"]["ABS"]["coefficients"]["c"][::-1], 0.09)
+    assert c_abs == pytest.approx(np.polyval(TABLE1["ABS"]["c"][::-1], 0.09), rel=0.1)  # negative, as Table 1's
+    rows = {(r["mixture"], r["model"]): r for r in summary["forced_step"]}
+    for mixture in TABLE1:
+        t1, fit = rows[(mixture, "Table 1")], rows[(mixture, "identified")]
+        assert all(math.isfinite(v) for k, v in fit.items() if k.startswith(("twist", "φ₂"))), mixture
+        for level in ("0.09", "0.05"):  # inside the fitted range; 0 MPa is extrapolated and still beats
+            assert fit[f"twist at {level} MPa [deg]"] == pytest.approx(t1[f"twist at {level} MPa [deg]"], abs=0.3)

@@ -231,7 +231,7 @@ def test_tensorboard_gets_losses_physics_in_units_loops_and_hparams(tmp_path):
         acc = EventAccumulator(str(event), size_guidance={"images": 0}).Reload()
         for k in tags:
             tags[k] += acc.Tags().get(k, [])
-    assert {"train/loss", "train/data_loss", "val/rmse"} <= set(tags["scalars"])
+    assert {"train/loss", "train/data_loss", "train/rmse"} <= set(tags["scalars"])
     assert "phys/friction.v_s [deg/s]" in tags["scalars"]
     assert any(t.startswith("phys/hysteresis.") and t.endswith("]") for t in tags["scalars"])
     assert "loops/mixture=1:3, pressure_mpa=0.07" in tags["images"]

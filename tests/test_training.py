@@ -205,3 +205,27 @@ def test_hybrid_oscillator_physics_loss_starts_at_zero_and_its_time_derivatives_
     k = slice(10, -10)
     assert np.abs(dr[1:-1][k] - fd1[k]).max() < 1e-3 * np.abs(fd1[k]).max()
     assert np.abs(ddr[1:-1][k] - fd2[k]).max() < 2e-2 * np.abs(fd2[k]).max()
+
+
+@pytest.mark.parametrize("val", [None, {"level": [2.0]}], ids=["no-validation-split", "validation-split"])
+def test_validation_metrics_exist_only_where_validation_records_do(val, float64):
+    """Without validation records the validation loop scores the training records (whole records): that is the
+    training error and is logged as train/rmse, train/mae; val/* appear only with a validation split (before, the
+    training records' error was logged as val/rmse)."""
+    import lightning as L
+
+    dm = RecordDataModule(_loops(), held_out={"level": [3.0]}, val=val, window=40, warmup=5, batch_size=4)
+    module = MODULES["mlp"](dm.normaliser.to_dict(), hidden="2x8", lr=1e-2)
+    L.seed_everything(0, verbose=False)
+    trainer = L.Trainer(max_epochs=1, precision="64-true", logger=False, enable_checkpointing=False,
+                        enable_progress_bar=False, enable_model_summary=False)
+    trainer.fit(module, dm)
+    logged = set(trainer.callback_metrics)
+    part = "val" if val else "train"
+    assert module.validated_split() == part
+    assert {f"{part}/rmse", f"{part}/mae"} <= logged
+    if not val:
+        assert not [k for k in logged if k.startswith("val/")], logged
+    # the number logged is that split's whole-record RMSE
+    scored = split_metrics(predict_split(module, dm, part))["rmse"]
+    assert float(trainer.callback_metrics[f"{part}/rmse"]) == pytest.approx(scored, rel=1e-9)

@@ -25,12 +25,14 @@ from collections.abc import Callable
 
 from omegaconf import DictConfig, OmegaConf
 
-from ..files import (  # noqa: F401 (the apps' run-directory I/O)
-    atomic_write,
-    jsonable,
+from ..files import atomic_write, jsonable, write_json  # noqa: F401 (the apps' run-directory I/O)
+from ..runs import (  # noqa: F401 (the apps' run directories: one run each, complete or absent)
+    RunInterrupted,
+    interruptible,
+    mark_complete,
     prepare_run_dir,
+    release,
     run_dir_path,
-    write_json,
 )
 from ..settings import CONF_DIR, torch_settings  # noqa: F401 (re-exported for the apps)
 from ..simulate.api import RESOLVED
@@ -42,6 +44,7 @@ from ..training.config import (  # noqa: F401 (the one config reader of every ap
     split_options,
     to_plain,
 )
+from .overrides import check_overrides, check_search_path, cut_short_message
 
 __all__ = [
     "CONF_DIR",
@@ -118,10 +121,25 @@ def resolution_note(info: dict, settings: str) -> str:
 
 
 def check_app(cfg: DictConfig, app: str) -> None:
-    """Experiment configs say which app they belong to (``app:``); refuse one meant for another app."""
+    """The checks every app makes of its composed config first: experiment configs say which app they belong to
+    (``app:``), and one meant for another app is refused; in the app's own Hydra run, the command line's overrides
+    are checked against the config they change (``overrides.check_overrides``: text where a number is held, a
+    ``+`` key the app would ignore), each a one-line ``ValueError`` naming the key and the fix."""
     if cfg.get("app", app) != app:
-        raise ValueError(f"this configuration (experiment {cfg.get('experiment_name') or ''!s}) is for "
-                         f"hybridhyst-{cfg.app}, not hybridhyst-{app}")
+        name = _experiment_choice() or cfg.get("experiment_name")
+        what, again = (f"experiment {name}", f" experiment={name}") if name else ("this configuration", "")
+        raise ValueError(f"{what} is for hybridhyst-{cfg.app}, not hybridhyst-{app}: run it with "
+                         f"hybridhyst-{cfg.app}{again}, or choose an experiment of hybridhyst-{app}")
+    check_overrides(cfg, app)
+
+
+def _experiment_choice() -> str | None:
+    """The ``experiment=`` option of this Hydra run (the file name), None outside one or without an experiment."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if not HydraConfig.initialized():
+        return None
+    return (HydraConfig.get().runtime.get("choices") or {}).get("experiment")
 
 
 # -- errors ---------------------------------------------------------------------------------------------------
@@ -239,14 +257,27 @@ def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
     deleted or misspelt key, an unset ``???``, an interpolation that does not resolve) becomes
     ``error: <message>`` on one line and exit code 2.
 
-    ``HYBRIDHYST_TRACEBACK=1`` re-raises instead (for debugging). In a Hydra multirun the exception is
-    re-raised after the message: Hydra marks that job failed, runs the others and fails the sweep at the
-    end (``sys.exit`` inside a job would stop the whole sweep).
+    SIGTERM and SIGINT (``hybridhyst.runs.interruptible``) end the run within seconds with one line, what it
+    kept and how to resume (``RunInterrupted.note``, set by the app; ``interrupted_note`` otherwise), and exit
+    code 128 + the signal's number (130 for Ctrl-C, 143 for SIGTERM), never 0. In a multirun the sweep stops
+    there with that code: a killed job fails its sweep, and the jobs after it are not launched. The run
+    directory this process claimed (``prepare_run_dir``) is released at the end, whatever happened.
+
+    ``HYBRIDHYST_TRACEBACK=1`` re-raises instead (for debugging). In a Hydra multirun an error is re-raised
+    after the message: Hydra marks that job failed, runs the others and fails the sweep at the end
+    (``sys.exit`` inside a job would stop the whole sweep).
     """
     from omegaconf.errors import OmegaConfBaseException
 
     try:
-        return run(cfg)
+        with interruptible():
+            return run(cfg)
+    except RunInterrupted as exc:
+        note = getattr(exc, "note", None) or interrupted_note(cfg)
+        say(f"interrupted by {exc.signame}: {note}{_sweep_note(cfg)}", error=True)
+        if os.environ.get("HYBRIDHYST_TRACEBACK"):
+            raise
+        raise SystemExit(exc.exit_code) from None
     except (ValueError, FileNotFoundError, OmegaConfBaseException) as exc:
         if isinstance(exc, OmegaConfBaseException):
             message = config_error_message(exc, cfg)
@@ -256,11 +287,31 @@ def guarded(run: Callable[[DictConfig], dict], cfg: DictConfig) -> dict:
         if os.environ.get("HYBRIDHYST_TRACEBACK") or _multirun():
             raise
         sys.exit(2)
+    finally:
+        release()
+
+
+def interrupted_note(cfg) -> str:
+    """What an interrupted run left: no finished results in its run directory."""
+    where = run_dir_path(cfg) if isinstance(cfg, DictConfig) else None
+    return f"no finished results in {where} (no complete.json)" if where else "nothing was written"
+
+
+def _sweep_note(cfg) -> str:
+    """The sentence an interrupted multirun job adds: the sweep stops, and how to go on."""
+    if not _multirun():
+        return ""
+    again = ("launch the same command again with +skip_finished=true to run only the jobs that did not finish"
+             if isinstance(cfg, DictConfig) and cfg.get("app") == "train" else "launch it again")
+    return f"; the sweep stops here and its later jobs are not run: {again}"
 
 
 def _composition_message(exc: Exception) -> str:
     """One line for Hydra's composition errors (an override of a key that is not in the config, a value that
     cannot be merged, an unknown config group option, a malformed override)."""
+    cut = cut_short_message(exc)
+    if cut:
+        return cut
     text = str(exc).split("Config search path", 1)[0]
     head, _, options = text.partition("Available options in")
     parts = [p.strip().rstrip(".:") for p in head.splitlines() if p.strip()]
@@ -309,20 +360,34 @@ def hydra_entry(hydra_main: Callable[[], None]) -> None:
     ``error: ...`` with exit code 2, like the errors ``guarded`` handles inside the run. Hydra re-raises
     instead of printing when ``HYDRA_FULL_ERROR`` is set, which this sets for the call (unless the user
     set it, or ``HYBRIDHYST_TRACEBACK``, to see tracebacks); any other exception propagates unchanged.
+    SIGTERM and SIGINT outside a run (between a sweep's jobs) end the process with one line and 128 + the
+    signal's number, as they do inside one (``guarded``).
     """
     from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
 
+    try:
+        check_search_path()
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        sys.exit(2)
     if os.environ.get("HYDRA_FULL_ERROR") or os.environ.get("HYBRIDHYST_TRACEBACK"):
         hydra_main()
         return
     os.environ["HYDRA_FULL_ERROR"] = "1"
     try:
-        hydra_main()
+        with interruptible():  # between a sweep's jobs too: a signal there stops the sweep with its exit code
+            hydra_main()
     except (ConfigCompositionException, MissingConfigException, OverrideParseException) as exc:
         print(f"error: {_composition_message(exc)}", file=sys.stderr, flush=True)
         sys.exit(2)
+    except RunInterrupted as exc:
+        print(f"interrupted by {exc.signame} between runs; a sweep stops here and its later jobs are not run: launch "
+              "the same command again (hybridhyst-train: with +skip_finished=true, to run only the jobs that did not "
+              "finish)", file=sys.stderr, flush=True)
+        sys.exit(exc.exit_code)
     finally:
         os.environ.pop("HYDRA_FULL_ERROR", None)
+        release()
 
 
 def _multirun() -> bool:

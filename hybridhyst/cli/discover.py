@@ -19,7 +19,7 @@ from ..data.decimate import decimate_all, decimation_factors
 from ..data.records import RecordSet
 from ..data.splits import Split
 from ..discover import discover
-from ..discover.report import write_discovery
+from ..discover.report import check_discovery, write_discovery
 from .common import (
     CONF_DIR,
     check_app,
@@ -29,6 +29,7 @@ from .common import (
     hydra_entry,
     instantiate,
     load_records,
+    mark_complete,
     prepare_run_dir,
     say,
     split_options,
@@ -47,7 +48,7 @@ def load_split(cfg: DictConfig) -> tuple[RecordSet, Split]:
     th = cfg.thinning
     samples_per_cycle, downsample, frequency = th.samples_per_cycle, th.downsample, th.frequency_condition
     records = load_records(cfg, split["select"])
-    factors = decimation_factors(records, samples_per_cycle, downsample, frequency)
+    factors = decimation_factors(records, samples_per_cycle, downsample, frequency, "thinning.frequency_condition")
     records = RecordSet(decimate_all(records, factors, "discovery"), records.name)
     return records, records.split(held_out=split["held_out"], val=split["val"])
 
@@ -122,11 +123,15 @@ def run(cfg: DictConfig) -> dict:
                        leftover=str(d.leftover), validation=str(d.validation),
                        start_states=bool(d.start_states), progress=bool(cfg.progress))
         result = discover(records, model, **options)
+    check_discovery(result, keep_going=bool(cfg.get("keep_going", False)),
+                    time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"
     reuse = write_model(run_dir, result.model, "discovered", "discovered by hybridhyst-discover")
     result.report["model_config"] = "model/discovered.yaml"
     write_discovery(result, run_dir, title=title, unit=unit)
+    mark_complete(run_dir, "discover", ["config.yaml", "discovery.json", "report.md", "residuals.png", "loops.png",
+                                        "model.pt", "model/discovered.yaml"])
     say("\n".join(summary_lines(result.report, unit, run_dir, reuse)))
     return result.report
 

@@ -18,9 +18,11 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
-from ..data.decimate import decimate, decimation_factors
+from ..analysis.finite import check_finite
+from ..data.decimate import decimate, decimate_all, decimation_factors
 from ..identify.gradient import fit_gradient
 from ..simulate import simulate_resolved
+from ..simulate.api import MAX_SUBSTEPS_SCORED
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -28,8 +30,10 @@ from .common import (
     check_model_data,
     guarded,
     hydra_entry,
+    identify_options,
     instantiate,
     load_records,
+    mark_complete,
     prepare_run_dir,
     resolution_note,
     say,
@@ -38,7 +42,16 @@ from .common import (
     torch_settings,
     write_json,
 )
-from .fit_report import _fmt, convergence_note, loop_caption, write_loop_figure, write_report
+from .fit_report import (
+    _fmt,
+    convergence_note,
+    diverged_sentence,
+    loop_caption,
+    part_rmse,
+    start_sentence,
+    write_loop_figure,
+    write_report,
+)
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 
@@ -78,7 +91,8 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
     sq, n = 0.0, 0
     for r_full, r, p in zip(records, data, preds):
         y_model = p[:, 0].cpu().numpy()
-        mse = float(np.mean((y_model - r.y) ** 2))
+        # a diverged record's error is not a value (``_check_finite`` names it), nor is a pooled one holding it
+        mse = float(np.mean((y_model - r.y) ** 2)) if np.isfinite(y_model).all() else math.nan
         per[r.name] = math.sqrt(mse)
         sq += mse * len(r_full)
         n += len(r_full)
@@ -94,16 +108,66 @@ def _conditions_table(records, keys) -> dict[str, dict]:
     return {r.name: {k: r.conditions.get(k) for k in keys} for r in records}
 
 
+START = ("identify", "model")  # fit.start: a global search first, or the model config's values
+
+
+def _start(model, data, cfg) -> dict:
+    """Where gradient descent starts (``fit.start``): ``identify``, the batched global search of
+    ``hybridhyst-identify`` (conf/identify.yaml's ``identify:`` block with the fit's simulation settings, no Fisher
+    analysis, at ``fit.substeps``, then ``fit.identify``'s keys; as ``hybridhyst-train``'s ``nominal_init``) on the
+    fit's grid ``data``, which fits ``model`` in place; or ``model``, the model config's values. Local descent from
+    a config's values can end in a local minimum (on MR damper loops: negative damping at 3.4 times the error the
+    search reaches). Returns what the summary says about the start."""
+    fit = cfg.fit
+    start = str(fit.get("start", "identify"))
+    if start not in START:
+        raise ValueError(f"unknown fit.start {start!r}; choose 'identify' (a global search first) or 'model' (the "
+                         "model config's values)")
+    if start == "model":
+        return {"start": "model"}
+    from ..identify import identify
+
+    block = OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"]
+    # at the fit's starting sub-steps, without step doubling of its own: the descent resolves them from there (a
+    # search at each finer step would cost three times as much on the BRFD loops, for a start)
+    settings = {"fisher": False, "ode_method": fit.method, "substeps": int(fit.substeps), "backend": fit.backend,
+                "resolve": False}
+    settings.update(to_plain(fit.get("identify")) or {})
+    opts = identify_options(block, "fit.identify", **settings)
+    try:
+        result = identify(model, data, seed=int(cfg.seed), progress=bool(cfg.progress), **opts)
+    except ValueError as e:
+        raise ValueError(f"fit.start=identify: the global search on the training records failed: {e} "
+                         "(fit.identify={bounds: ...} sets its search box; fit.start=model starts from the model "
+                         "config's values)") from e
+    return {"start": "identify", "search": result.search, "refine": str(opts["refine"]), "rmse": result.rmse,
+            "evaluations": result.evaluations, "wall_s": result.wall_s, "substeps": result.substeps,
+            "at_bounds": dict(result.at_bounds)}
+
+
+def _per_cycle(records, factors: dict, frequency) -> dict:
+    """Samples per loading cycle each record is simulated with: ``1 / (dt · f · factor)`` for a record with a
+    positive frequency condition ``f`` [Hz], None for one without (what the report says about the grid)."""
+    out = {}
+    for r in records:
+        f = r.conditions.get(frequency) if frequency else None
+        ok = isinstance(f, (int, float)) and not isinstance(f, bool) and f > 0
+        out[r.name] = 1.0 / (r.dt * f * factors[r.name]) if ok else None
+    return out
+
+
 def _fit(model, train, cfg) -> tuple:
     fit = cfg.fit
-    factors = decimation_factors(train, fit.samples_per_cycle, fit.downsample, fit.frequency_condition)
+    factors = decimation_factors(train, fit.samples_per_cycle, fit.downsample, fit.frequency_condition,
+                                 "fit.frequency_condition")
+    start = _start(model, decimate_all(train, factors, "the fit's start (fit.start=identify)"), cfg)
     result = fit_gradient(
         model, list(train), steps=int(fit.steps), lr=float(fit.lr), downsample=factors, loss=fit.loss,
         lbfgs_steps=int(fit.lbfgs_steps), progress=bool(cfg.progress), method=fit.method,
         substeps=int(fit.substeps), backend=str(fit.backend), resolve=bool(fit.resolve),
         max_substeps=int(fit.max_substeps),
     )
-    return result, factors
+    return result, factors, start
 
 
 def _reference(cfg) -> dict | None:
@@ -130,11 +194,25 @@ def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict
     solver = OmegaConf.create({"method": cfg.fit.method, "substeps": substeps, "backend": cfg.fit.backend})
     scores, frames, factors = {}, {}, {}
     for part, records in (("train", train), ("held_out", held_out)):
-        f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.fit.frequency_condition)
+        f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.fit.frequency_condition,
+                               "fit.frequency_condition")
         scores[part], part_frames, _ = _evaluate(model, list(records), f, solver)
         frames.update({k: v.assign(split=part) for k, v in part_frames.items()})
         factors.update(f)
     return scores, frames, factors
+
+
+def _check_finite(frames: dict, train, held_out, cfg) -> list:
+    """Which scored records diverged (non-finite model response), from which sample: an error naming them (exit
+    code 2), or with ``keep_going`` a warning (the summary and report name them; their RMSE is not finite)."""
+    names = [*train.names, *held_out.names]
+    unit = (train[0].units.get("t") if len(train) else None) or "s"
+    return check_finite([frames[n]["y_model"].to_numpy() for n in names], names,
+                        [frames[n]["t"].to_numpy() for n in names], splits=[frames[n]["split"].iloc[0] for n in names],
+                        keep_going=bool(cfg.get("keep_going", False)),
+                        hint=f"it diverges there even at the most sub-steps scoring tries ({MAX_SUBSTEPS_SCORED} per "
+                             "sample): check the fitted parameters (fit.start, fit.lr) or sample finer",
+                        what="the fitted model's simulation", time_unit=unit, warn=lambda text: say(text, error=True))
 
 
 def _chosen_loops(chosen, names: list[str]) -> list[str] | None:
@@ -156,9 +234,11 @@ def _worst_first(held_out: list[str], per_record: dict) -> list[str]:
     return sorted(held_out, key=lambda n: -math.inf if math.isnan(per_record[n]) else -per_record[n])[:MAX_LOOPS]
 
 
-def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors) -> dict:
-    fit_info = {"loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps, "samples": result.n_samples,
-                "evaluations": result.evaluations, "decimation": fit_factors, "wall_s": result.wall_s,
+def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors, start) -> dict:
+    frequency = cfg.fit.frequency_condition
+    fit_info = {"start": start, "loss": cfg.fit.loss, "final_loss": result.loss, "steps": result.steps,
+                "samples": result.n_samples, "evaluations": result.evaluations, "decimation": fit_factors,
+                "per_cycle": _per_cycle(train, fit_factors, frequency), "wall_s": result.wall_s,
                 "substeps": result.substeps, "resolution": result.resolution if cfg.fit.resolve else None,
                 "converged": result.converged, "stop": result.stop, "last_change": result.last_change}
     return {
@@ -170,6 +250,7 @@ def _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_fact
         "units": {"x": train[0].units.get("x", ""), "y": train[0].units.get("y", "")},
         "fit": fit_info,
         "evaluate": {"samples_per_cycle": cfg.evaluate.samples_per_cycle, "decimation": eval_factors,
+                     "per_cycle": _per_cycle([*train, *held_out], eval_factors, frequency),
                      "substeps": {part: scores[part]["substeps"] for part in ("train", "held_out")}},
         "model": cfg.model.get("name") or model.name,
         "reference": _reference(cfg),
@@ -188,13 +269,17 @@ def run(cfg: DictConfig) -> dict:
         note = check_model_data(model, [*train, *held_out])
         if note:  # records without units: the model's are assumed
             say(note)
-        result, fit_factors = _fit(model, train, cfg)
+        result, fit_factors, start_info = _fit(model, train, cfg)
         scores, frames, eval_factors = _score(model, train, held_out, cfg, result.substeps)
-    summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors)
+        diverged = _check_finite(frames, train, held_out, cfg)
+    summary = _summary(cfg, model, train, held_out, result, fit_factors, scores, eval_factors, start_info)
+    summary["diverged"] = [d.to_dict() for d in diverged]
     loop_names = chosen or _worst_first(held_out.names, summary["per_record"])
     unit = f" {summary['units']['y']}".rstrip()
+    gone = {d["record"]: d for d in summary["diverged"]}
     write_loop_figure(run_dir / "loop.png", [frames[n] for n in loop_names], summary["units"],
-                      [f"{n} (RMSE {summary['per_record'][n]:.3g}{unit})" for n in loop_names])
+                      [f"{n} (diverged from sample {gone[n]['sample']})" if n in gone else
+                       f"{n} (RMSE {summary['per_record'][n]:.3g}{unit})" for n in loop_names])
     table = pd.concat(frames.values(), ignore_index=True)
     atomic_write(run_dir / "predictions.parquet", lambda p: table.to_parquet(p, index=False))
     summary["wall_s"] = time.perf_counter() - start
@@ -202,6 +287,7 @@ def run(cfg: DictConfig) -> dict:
     summary["loop_caption"] = loop_caption(loop_names, held_out.names, chosen is not None)
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
+    mark_complete(run_dir, "fit", ["config.yaml", "predictions.parquet", "report.md", "summary.json", "loop.png"])
     say("\n".join(summary_lines(summary, run_dir)))
     return summary
 
@@ -209,12 +295,15 @@ def run(cfg: DictConfig) -> dict:
 def summary_lines(summary: dict, run_dir) -> list[str]:
     """The terminal summary: training and held-out RMSE in the data's unit, the fitted values, the report."""
     unit = f" {summary['units']['y']}".rstrip()
-    rmse, fit = summary["rmse"], summary["fit"]
-    h = rmse.get("held_out")
-    held = f", held-out {h:.4g}{unit}" if h is not None and math.isfinite(h) else ""
+    fit = summary["fit"]
     steps = " + ".join(f"{n} {kind}" for kind, n in fit["steps"].items() if n)
-    lines = [f"fit: {summary['model']}: RMSE training {rmse['train']:.4g}{unit}{held} "
+    lines = [f"fit: {summary['model']}: RMSE training {part_rmse(summary, 'train', unit)}, held-out "
+             f"{part_rmse(summary, 'held_out', unit)} "
              f"({steps} steps{', converged' if fit.get('converged') else ''}, {fit['wall_s']:.3g} s)"]
+    lines += textwrap.wrap(start_sentence(fit.get("start") or {}, unit), 116, initial_indent="  ",
+                           subsequent_indent="  ")
+    if summary.get("diverged"):
+        lines += textwrap.wrap(diverged_sentence(summary), 116, initial_indent="  ", subsequent_indent="  ")
     values = [f"{e}.{p} = {_fmt(info['value'])}" + (f" {info['unit']}" if isinstance(info["value"], float) else "")
               for e, params in summary["parameters"].items() for p, info in params.items() if not info.get("fixed")]
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")

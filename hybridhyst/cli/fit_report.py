@@ -6,6 +6,7 @@ fit run.)
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -14,7 +15,8 @@ from ..identify.gradient import TOLERANCE
 from ..report.figures import Loop, write_loops
 from .common import atomic_write, resolution_note
 
-__all__ = ["convergence_note", "loop_caption", "write_loop_figure", "write_report"]
+__all__ = ["convergence_note", "diverged_sentence", "grid_words", "loop_caption", "part_rmse", "start_sentence",
+           "write_loop_figure", "write_report"]
 
 
 def write_loop_figure(path: Path, frames: list[pd.DataFrame], units: dict[str, str], titles: list[str]) -> Path:
@@ -41,12 +43,65 @@ def _fmt(value) -> str:
     return "" if value is None else str(value)
 
 
-def _grid(evaluate: dict) -> str:
-    factors = sorted(set(evaluate["decimation"].values()))
-    every = ("every sample" if factors == [1] else f"one measured sample in {' or '.join(map(str, factors))}"
-             + (", depending on the record" if len(factors) > 1 else ""))
-    per_cycle = evaluate.get("samples_per_cycle")
-    return f"about {per_cycle} samples per loading cycle ({every})" if per_cycle else every
+def _count(v: float) -> str:
+    return f"{v:.0f}" if v >= 10 else f"{v:.2g}"
+
+
+def grid_words(decimation: dict, per_cycle: dict | None = None) -> str:
+    """What a grid was, as it was made: the samples per loading cycle the records actually had (a range where
+    they differ; ``per_cycle``: ``{record: samples per cycle or None}``) and whether they were thinned
+    (``decimation``: ``{record: factor}``), e.g. "167–500 samples per loading cycle (every sample)" or "256
+    samples per loading cycle (one measured sample in 2, 4 or 8, depending on the record)"."""
+    factors = sorted(set(decimation.values()))
+    if factors == [1]:
+        thinned = "every sample"
+    else:
+        listed = ", ".join(map(str, factors[:-1])) + (" or " if len(factors) > 1 else "") + str(factors[-1])
+        thinned = f"one measured sample in {listed}" + (", depending on the record" if len(factors) > 1 else "")
+    cycles = [v for v in (per_cycle or {}).values() if v is not None]
+    if not cycles:
+        return thinned
+    lo, hi = _count(min(cycles)), _count(max(cycles))
+    span = lo if lo == hi else f"{lo}–{hi}"
+    without = len(per_cycle) - len(cycles)
+    also = f"; {without} record{'s' if without > 1 else ''} without a loading frequency" if without else ""
+    return f"{span} samples per loading cycle ({thinned}{also})"
+
+
+def part_rmse(summary: dict, part: str, unit: str = "", fmt: str = ".4g") -> str:
+    """A part's pooled RMSE (``"0.8634 kip"``), or, where it is not finite, why: "not finite: diverged on 1 of 3
+    records" (a diverged record is named, never dropped)."""
+    value = summary["rmse"].get(part)
+    if value is not None and math.isfinite(value):
+        return f"{value:{fmt}}{unit}"
+    names = summary["split"][part]
+    gone = [d for d in summary.get("diverged") or [] if d["record"] in names]
+    noun = "record" if len(names) == 1 else "records"
+    return f"not finite: diverged on {len(gone)} of {len(names)} {noun}" if gone else "not finite"
+
+
+def start_sentence(start: dict, unit: str = "") -> str:
+    """Where gradient descent started (``fit.start``), in one sentence."""
+    if start.get("start") != "identify":
+        return ("Started from the model config's values (fit.start=model): a local descent, which can end in a local "
+                "minimum.")
+    edges = f"; at the edge of its box: {', '.join(start['at_bounds'])}" if start.get("at_bounds") else ""
+    return (f"Started from a global search (fit.start=identify: {start['search']} + {start['refine']} on the training "
+            f"records, as hybridhyst-identify; RMSE {start['rmse']:.4g}{unit}, {start['wall_s']:.2g} s{edges}).")
+
+
+def diverged_sentence(summary: dict) -> str:
+    """The records whose simulation diverged (kept going with ``keep_going=true``), each from its first
+    non-finite sample; '' when none did."""
+    gone = summary.get("diverged") or []
+    if not gone:
+        return ""
+    t_unit = summary["units"].get("t") or "s"
+    named = ", ".join(f"{d['record']} ({d['split'].replace('_', ' ')}) from sample {d['sample']}"
+                      + (f" (t = {d['t']:.4g} {t_unit})" if d.get("t") is not None else "") for d in gone)
+    return (f"The fitted model's simulation diverged on {len(gone)} of {len(summary['per_record'])} records: {named}. "
+            "The RMSE of a diverged record, and a pooled RMSE that includes one, is not a value (the results are "
+            "written anyway: keep_going=true).")
 
 
 def convergence_note(fit: dict) -> str:
@@ -81,7 +136,9 @@ def _record_lines(summary: dict, names: list[str], unit: str) -> list[str]:
     for n in names:
         cond = summary["conditions"].get(n, {})
         cells = " | ".join(_fmt(cond.get(k)) for k in keys)
-        lines.append(f"| {n} | {cells} | {summary['per_record'][n]:.3f} |")
+        rmse = summary["per_record"][n]
+        shown = f"{rmse:.3f}" if rmse is not None and math.isfinite(rmse) else "diverged"
+        lines.append(f"| {n} | {cells} | {shown} |")
     return lines
 
 
@@ -89,11 +146,15 @@ def _reference_lines(summary: dict, unit: str) -> list[str]:
     ref = summary.get("reference")
     model = summary.get("model") or "this model"
     lines = [f"| model | held-out RMSE [{unit}] |", "|---|---|",
-             f"| **{model} (this run)** | **{summary['rmse']['held_out']:.3f}** |"]
+             f"| **{model} (this run)** | **{_value(summary['rmse']['held_out'])}** |"]
     if ref:
         lines += [f"| {name} (reference) | {value:.2f} |" for name, value in ref["held_out_rmse"].items()]
         lines += ["", f"Reference numbers: {ref['source']}."]
     return lines
+
+
+def _value(v) -> str:
+    return f"{v:.3f}" if v is not None and math.isfinite(v) else "not finite (diverged)"
 
 
 def write_report(path: Path, summary: dict) -> Path:
@@ -109,9 +170,12 @@ def write_report(path: Path, summary: dict) -> Path:
         f"Held-out records ({len(summary['split']['held_out'])}): {', '.join(summary['split']['held_out'])}.",
         "",
         " ".join(filter(None, [
+            start_sentence(fit.get("start") or {}, f" {unit}".rstrip()),
             f"Fit: {fit['loss']} loss by gradient descent through `simulate` ({steps}; {fit['evaluations']} "
-            f"simulations) on {fit['samples']} decimated samples in {fit['wall_s']:.1f} s; whole run "
-            f"{summary['wall_s']:.1f} s.", convergence_note(fit), resolution_note(fit, "fit")])),
+            f"simulations) on {fit['samples']} samples, {grid_words(fit['decimation'], fit.get('per_cycle'))}, in "
+            f"{fit['wall_s']:.1f} s; whole run {summary['wall_s']:.1f} s.", convergence_note(fit),
+            resolution_note(fit, "fit")])),
+        *(["", diverged_sentence(summary)] if summary.get("diverged") else []),
         "",
         "## Fitted parameters",
         "",
@@ -121,8 +185,10 @@ def write_report(path: Path, summary: dict) -> Path:
         "",
         *_record_lines(summary, summary["split"]["held_out"], unit),
         "",
-        (f"Pooled RMSE (records weighted by their full-rate length): train {summary['rmse']['train']:.3f} "
-         f"{unit}, held out {summary['rmse']['held_out']:.3f} {unit}, scored on {_grid(summary['evaluate'])}."),
+        (f"Pooled RMSE (records weighted by their full-rate length): train "
+         f"{part_rmse(summary, 'train', ' ' + unit, '.3f')}, held out "
+         f"{part_rmse(summary, 'held_out', ' ' + unit, '.3f')}, scored on "
+         f"{grid_words(summary['evaluate']['decimation'], summary['evaluate'].get('per_cycle'))}."),
         "",
         *_reference_lines(summary, unit),
         "",

@@ -18,6 +18,7 @@ import hydra
 import torch
 from omegaconf import DictConfig
 
+from ..analysis.finite import DivergenceError, check_finite, divergence_message, nonfinite_records
 from ..data.records import RecordSet
 from ..identify import SearchSpace, identify
 from ..report.figures import write_loops
@@ -26,6 +27,7 @@ from ..simulate import simulate
 from .common import (
     CONF_DIR,
     atomic_write,
+    check_app,
     check_model_data,
     edge_line,
     guarded,
@@ -33,6 +35,7 @@ from .common import (
     identify_options,
     instantiate,
     load_records,
+    mark_complete,
     prepare_run_dir,
     resolution_note,
     say,
@@ -65,6 +68,35 @@ def _identify(model, records, cfg):
     noise = float(cfg.noise_sd or 0.0)  # the data's noise level (by default the noise added to them)
     opts = identify_options(cfg.identify, "identify", ("noise_sd",))
     return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), noise_sd=noise or None, **opts)
+
+
+HINT = "raise identify.substeps, narrow identify.bounds or check the model config's values"
+
+
+def _diverged_everywhere(error: ValueError, records: RecordSet, cfg, run_dir: Path, start: float) -> dict:
+    """Identification ended non-finite (every member of the search diverged): name the records the model
+    diverges on at its config's values, and from which sample. Without ``keep_going`` that is the error (exit
+    code 2); with it a warning, and ``summary.json`` and ``report.md`` say so (``status: diverged``: nothing was
+    identified, so no model is written)."""
+    model = instantiate(cfg.model, _convert_="all")
+    with torch.no_grad():
+        preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
+                         substeps=int(cfg.identify.substeps))
+    unit = (records.records[0].units.get("t") if len(records) else None) or "s"
+    found = nonfinite_records(preds, records.names, [r.t for r in records])
+    if not found:
+        raise error
+    message = f"{error}; at the model config's values {divergence_message(found, len(records), time_unit=unit)}"
+    if not cfg.get("keep_going", False):
+        raise DivergenceError(f"{message}; keep_going=true writes the results anyway", found) from error
+    say(f"warning: {message}; results written anyway (keep_going=true)", error=True)
+    summary = {"status": "diverged", "model": cfg.model.get("name") or model.name, "records": records.names,
+               "error": str(error), "diverged": [d.to_dict() for d in found], "wall_s": time.perf_counter() - start}
+    atomic_write(run_dir / "report.md", f"# Identification: {summary['model']}\n\nNothing was identified: {message}."
+                 f" Try: {HINT}.\n")
+    write_json(run_dir / "summary.json", summary)
+    mark_complete(run_dir, "identify", ["config.yaml", "report.md", "summary.json"])
+    return summary
 
 
 def _num(v) -> str:
@@ -155,6 +187,7 @@ def _summary(cfg, model, result, records) -> dict:
 
 def run(cfg: DictConfig) -> dict:
     """Identify, write the run directory, return the summary (also ``summary.json``)."""
+    check_app(cfg, "identify")
     start = time.perf_counter()
     run_dir = prepare_run_dir(cfg)
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
@@ -163,11 +196,21 @@ def run(cfg: DictConfig) -> dict:
         note = check_model_data(model, records)
         if note:  # records without units: the model's are assumed
             say(note)
-        result = _identify(model, records, cfg)
+        try:
+            result = _identify(model, records, cfg)
+        except ValueError as e:
+            if "ended non-finite" not in str(e):
+                raise
+            return _diverged_everywhere(e, records, cfg, run_dir, start)
         with torch.no_grad():
             preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
                              substeps=result.substeps)
+        unit = (records.records[0].units.get("t") if len(records) else None) or "s"
+        diverged = check_finite(preds, records.names, [r.t for r in records], keep_going=bool(cfg.get("keep_going")),
+                                hint=HINT, what="the identified model's simulation", time_unit=unit,
+                                warn=lambda text: say(text, error=True))
         summary = _summary(cfg, model, result, records)
+        summary["diverged"] = [d.to_dict() for d in diverged]
     shown = list(records)[: max(1, int(cfg.report.max_figures))]
     write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")
     # the fitted nominal (model.pt, model/identified.yaml): hybridhyst-train starts a hybrid from it
@@ -175,6 +218,8 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)
+    mark_complete(run_dir, "identify", ["config.yaml", "loops.png", "model.pt", "model/identified.yaml", "report.md",
+                                        "summary.json"])
     say("\n".join(summary_lines(summary, run_dir, reuse)))
     return summary
 

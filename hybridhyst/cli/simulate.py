@@ -15,6 +15,7 @@ import pandas as pd
 import torch
 from omegaconf import DictConfig
 
+from ..analysis.finite import check_finite
 from ..data.decimate import decimate
 from ..simulate import simulate
 from .common import (
@@ -25,7 +26,9 @@ from .common import (
     hydra_entry,
     instantiate,
     load_records,
+    mark_complete,
     prepare_run_dir,
+    say,
     to_plain,
     torch_settings,
     write_json,
@@ -71,7 +74,8 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     if kind == "free_vibration" and "x" in frame:
         from ..analysis import free_vibration_frequency
 
-        info["frequency_hz"] = free_vibration_frequency(frame["x"].to_numpy(), float(inp.dt))
+        finite = bool(np.isfinite(y).all())  # a diverged run has no frequency (null, and run() names the sample)
+        info["frequency_hz"] = free_vibration_frequency(frame["x"].to_numpy(), float(inp.dt)) if finite else None
     return [frame], {kind: info}
 
 
@@ -92,8 +96,26 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)
-        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y)}
+        finite = bool(np.isfinite(y[:, 0]).all())  # a diverged record has no RMSE (run() names the sample)
+        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y) if finite else None}
     return frames, info
+
+
+def _check_finite(frames: list[pd.DataFrame], outputs: list[str], records: dict, cfg) -> list:
+    """Which records diverged (non-finite output), from which sample: an error naming them (exit code 2), or
+    with ``keep_going`` a warning, each record's entry in ``records`` marked (its RMSE and frequency are then
+    null: nothing derived from a diverged run is reported as a value)."""
+    unit = "s" if cfg.input.kind != "data" else (cfg.data.get("units") or {}).get("t", "s")
+    diverged = check_finite([f[outputs].to_numpy() for f in frames], [str(f["record"].iloc[0]) for f in frames],
+                            [f["t"].to_numpy() for f in frames], keep_going=bool(cfg.get("keep_going", False)),
+                            hint="raise solver.substeps (or sample finer) or check the model's parameters",
+                            time_unit=unit, warn=lambda text: say(text, error=True))
+    for d in diverged:
+        records[d.record]["diverged"] = {"sample": d.sample, "t": d.t}
+        for derived in ("frequency_hz", "rmse"):  # computed from a diverged response: not values
+            if derived in records[d.record]:
+                records[d.record][derived] = None
+    return diverged
 
 
 def run(cfg: DictConfig) -> dict:
@@ -107,12 +129,15 @@ def run(cfg: DictConfig) -> dict:
             raise ValueError(f"unknown input.kind {cfg.input.kind!r}; choose one of {sorted(kinds)}")
         model = instantiate(cfg.model, _convert_="all")
         frames, records = kinds[cfg.input.kind](model, cfg)
+        diverged = _check_finite(frames, _output_names(model), records, cfg)
         table = pd.concat(frames, ignore_index=True)
         atomic_write(run_dir / "predictions.csv", table.to_csv(index=False))
         summary = {"model": cfg.model.get("name") or model.name, "input": cfg.input.kind,
-                   "outputs": _output_names(model), "records": records}
+                   "outputs": _output_names(model), "records": records,
+                   "diverged": [d.to_dict() for d in diverged]}
     summary["wall_s"] = time.perf_counter() - start
     write_json(run_dir / "summary.json", summary)
+    mark_complete(run_dir, "simulate", ["config.yaml", "predictions.csv", "summary.json"])
     return summary
 
 

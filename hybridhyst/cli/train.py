@@ -25,6 +25,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import pickle
 import shutil
 import textwrap
 import time
@@ -37,9 +38,13 @@ import pandas as pd
 import torch
 import yaml
 from lightning.pytorch.callbacks import Callback
+from lightning.pytorch.utilities.exceptions import MisconfigurationException
 from omegaconf import DictConfig, OmegaConf
 
+from ..analysis.finite import check_finite
 from ..data.datamodule import RecordDataModule
+from ..files import load_weights, not_weights
+from ..runs import RunInterrupted, claim, inside, is_complete, is_run_dir
 from ..training import predict_split, predictions_frame, split_metrics
 from ..training.build import build_datamodule, build_trainer, lbfgs_settings, nominal_start, run_info
 from ..training.build import build_module as _build_module
@@ -53,6 +58,7 @@ from .common import (
     hydra_entry,
     identify_options,
     jsonable,
+    mark_complete,
     prepare_run_dir,
     run_dir_path,
     say,
@@ -161,14 +167,54 @@ def run(cfg: DictConfig) -> dict:
         if done is not None:
             say(f"{done['info']['name']}: finished earlier with this config, kept: {run_dir_path(cfg)}")
             return done
-        _clear(run_dir_path(cfg))
-    run_dir = prepare_run_dir(cfg)
+    run_dir = prepare_run_dir(cfg)  # claimed: a second run into this directory is refused while this one lives
+    if cfg.get("ckpt_path"):  # a resumed run writes its checkpoints into the checkpoint's own run directory: hold it
+        resumed = _checkpoint_dir(cfg, run_dir).parent
+        if is_run_dir(resumed):
+            claim(resumed)
+    else:
+        _clear(run_dir)
     meta = run_info(cfg)
     try:
         return _run(cfg, run_dir, meta, start)
-    except Exception as e:
-        write_json(run_dir / "metrics.json", {"status": "failed", "error": f"{type(e).__name__}: {e}", "info": meta})
+    except BaseException as e:  # an error or an interruption (RunInterrupted): the run's results say so
+        what = f"interrupted by {e.signame}" if isinstance(e, RunInterrupted) else f"{type(e).__name__}: {e}"
+        write_json(run_dir / "metrics.json", {"status": "failed", "error": what, "info": meta})
+        if isinstance(e, RunInterrupted):
+            e.note = _interrupted_note(cfg, run_dir)
         raise
+
+
+def _checkpoint_dir(cfg: DictConfig, run_dir: Path) -> Path:
+    """Where the run's checkpoints go (``build_trainer``'s rule): a resumed run keeps writing into the
+    checkpoint's own folder, a new one into ``<run dir>/checkpoints``."""
+    return Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else run_dir / "checkpoints"
+
+
+def _interrupted_note(cfg: DictConfig, run_dir: Path) -> str:
+    """The line an interrupted run ends with: where its state is and the command option that resumes it."""
+    state = _checkpoint_dir(cfg, run_dir) / INTERRUPTED
+    if state.is_file():
+        return (f"metrics.json says status failed (interrupted); the state at the interruption is in {state}: "
+                f"resume with ckpt_path={state}")
+    return "metrics.json says status failed (interrupted); nothing to resume from (it stopped before training)"
+
+
+INTERRUPTED = "interrupted.ckpt"
+
+
+class InterruptCheckpoint(Callback):
+    """Saves the trainer's whole state as ``<checkpoint dir>/interrupted.ckpt`` when SIGTERM or SIGINT stop
+    the run (``RunInterrupted``), mid-epoch included, so that ``ckpt_path=`` resumes it (Lightning's
+    ``OnExceptionCheckpoint`` deletes its file again at teardown, and fires on every error)."""
+
+    def __init__(self, dirpath: Path):
+        self.path = Path(dirpath) / INTERRUPTED
+
+    def on_exception(self, trainer, pl_module, exception) -> None:
+        if isinstance(exception, RunInterrupted):
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            trainer.save_checkpoint(self.path, weights_only=False)  # the whole state: resumable
 
 
 def finished_run(cfg: DictConfig) -> dict | None:
@@ -180,15 +226,18 @@ def finished_run(cfg: DictConfig) -> dict | None:
         earlier = OmegaConf.to_container(OmegaConf.load(run_dir / "config.yaml"), resolve=True)
     except (OSError, ValueError, yaml.YAMLError):
         return None
-    if not isinstance(metrics, dict) or metrics.get("status") != "ok":
+    if not isinstance(metrics, dict) or metrics.get("status") != "ok" or not is_complete(run_dir):
         return None
     return metrics if earlier == OmegaConf.to_container(cfg, resolve=True) else None
 
 
 def _clear(run_dir: Path) -> None:
-    """Remove an earlier run's ``metrics.json`` and checkpoints from ``run_dir`` (a new run starts there)."""
+    """Remove an earlier run's results from ``run_dir`` (a new run starts there): ``metrics.json``, the
+    checkpoints and the TensorBoard events, so that neither is mistaken for this run's (a run directory
+    holds one run)."""
     (run_dir / "metrics.json").unlink(missing_ok=True)
     shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
+    shutil.rmtree(run_dir / "tensorboard", ignore_errors=True)
 
 
 def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
@@ -203,11 +252,18 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         dm = build_datamodule(cfg)
         module = build_module(cfg, dm)  # identifies the nominal (nominal_init) unless resuming
         starting = StartModel()
-        trainer = build_trainer(cfg, run_dir, callbacks=[starting])
+        trainer = build_trainer(cfg, run_dir, callbacks=[starting, InterruptCheckpoint(_checkpoint_dir(cfg, run_dir))],
+                                monitor=f"{_monitor(dm)}/rmse")  # the split the module's validation loop scores
         if not cfg.get("ckpt_path"):  # resuming: trainer.fit restores the original start from the checkpoint
             starting.capture(module, dm, nominal_start(cfg))
         t0 = time.perf_counter()
-        trainer.fit(module, dm, ckpt_path=cfg.get("ckpt_path"))
+        try:
+            trainer.fit(module, dm, ckpt_path=cfg.get("ckpt_path"), weights_only=True)  # a checkpoint is data, not code
+        except pickle.UnpicklingError as e:
+            raise not_weights(cfg.ckpt_path, e) from None
+        except MisconfigurationException as e:  # e.g. a checkpoint past trainer.max_epochs: one line, not a traceback
+            raise ValueError(f"trainer: {' '.join(str(e).split())} (ckpt_path={cfg.get('ckpt_path')}, "
+                             f"trainer.max_epochs={cfg.trainer.max_epochs})") from None
         epochs = int(trainer.current_epoch)
         lbfgs = lbfgs_settings(cfg)
         if lbfgs is not None:  # full-batch L-BFGS from where Adam ended, in a trainer of its own
@@ -216,9 +272,9 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
             trainer = build_trainer(cfg, run_dir, after=trainer)
             trainer.fit(module, dm)
         train_time = time.perf_counter() - t0
-        best = trainer.checkpoint_callback.best_model_path if trainer.checkpoint_callback else ""
+        best = _best_checkpoint(trainer, _checkpoint_dir(cfg, run_dir))
         if best and cfg.evaluate_best:
-            module.load_state_dict(torch.load(best, map_location="cpu", weights_only=False)["state_dict"])
+            module.load_state_dict(load_weights(best)["state_dict"])
         preds = {s: predict_split(module, dm, s) for s in SPLITS}
         floor = None
         if cfg.evaluate_best and starting.weights is not None:  # never worse on validation than the start
@@ -231,6 +287,13 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
                 preds = {s: predict_split(module, dm, s) for s in SPLITS}
     if not trainer.is_global_zero:  # DDP: one process writes the run directory
         return {}
+    rows = [p for s in SPLITS for p in preds[s]]
+    diverged = check_finite([p["y_pred"] for p in rows], [p["record"] for p in rows], [p["t"] for p in rows],
+                            splits=[p["split"] for p in rows], keep_going=bool(cfg.get("keep_going", False)),
+                            hint="raise simulation.substeps or check the nominal's parameters (nominal_init, "
+                                 "nominal_state)",
+                            what="the trained model's simulation", time_unit=dm.units.get("t", "s"),
+                            warn=lambda text: say(text, error=True))
     metrics = {s: split_metrics(p) for s, p in preds.items()}
     meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=epochs,
                 lbfgs_steps_done=int(trainer.current_epoch) if lbfgs is not None else 0,
@@ -239,7 +302,8 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
                 evaluated="best" if best and cfg.evaluate_best else "last")
     logged = {k: float(v) for k, v in trainer.callback_metrics.items()}  # the last epoch's logged values
     result = {"status": "ok", **metrics, "info": meta, "physics": _physics(module), "nominal": starting.nominal,
-              "start": floor, "logged": logged, "wall_s": time.perf_counter() - start}
+              "start": floor, "logged": logged, "diverged": [d.to_dict() for d in diverged],
+              "wall_s": time.perf_counter() - start}
     if cfg.predictions:
         frame = predictions_frame([p for s in ("train", "val", "test") for p in preds[s]])
         atomic_write(run_dir / "predictions.parquet", lambda p: frame.to_parquet(p, index=False))
@@ -249,8 +313,25 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         atomic_write(run_dir / "model.pt", lambda p: torch.save(module.nominal.state_dict(), p))
     _log_hparams(trainer, cfg, result)
     write_json(run_dir / "metrics.json", result)
+    mark_complete(run_dir, "train", ["config.yaml", "metrics.json", "predictions.parquet", "parameters.csv",
+                                     "model.pt", "checkpoints", "tensorboard"])
     say(summary(result, run_dir, cfg.get("ckpt_path")))
     return result
+
+
+def _best_checkpoint(trainer, checkpoints: Path) -> str:
+    """The best checkpoint's path, used only where it lies in this run's checkpoint folder: a checkpoint
+    names the best one by a path of its own (``best_model_path`` in ``last.ckpt``), which in a copied or
+    shared run directory points elsewhere; there the file of that name in ``checkpoints`` is used, if any."""
+    best = trainer.checkpoint_callback.best_model_path if trainer.checkpoint_callback else ""
+    if not best or inside(best, checkpoints):
+        return best
+    here = checkpoints / Path(best).name
+    if here.is_file():
+        return str(here)
+    say(f"note: the checkpoint names its best weights at {best}, outside this run's {checkpoints}: not read; "
+        "the last weights are evaluated")
+    return ""
 
 
 def summary(result: dict, run_dir: Path, resumed: str | None = None) -> str:

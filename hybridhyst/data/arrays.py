@@ -27,8 +27,16 @@ _COLUMN = re.compile(r"^(?P<key>.+?)\[(?P<col>-?\d+)\]$")
 
 def load_npz(file: Path) -> dict[str, np.ndarray]:
     """All arrays of an ``.npz`` archive (no pickled objects)."""
+    with open(file, "rb") as handle:
+        magic = handle.read(6)
+    if magic.startswith(b"\x93NUMPY"):
+        raise ValueError(f"file {str(file)!r} is a single .npy array, not an .npz archive of named arrays; save it "
+                         "with numpy.savez(name, t=..., x=..., y=...)")
+    if not magic.startswith(b"PK"):
+        raise ValueError(f"file {str(file)!r} is not an .npz archive (it starts with {magic!r}); re-save it with "
+                         "numpy.savez, or read a csv file under its own extension")
     try:
-        with np.load(file, allow_pickle=False) as archive:
+        with open(file, "rb") as handle, np.load(handle, allow_pickle=False) as archive:  # closed if not a zip
             arrays = {k: archive[k] for k in archive.files}
     except ValueError as err:
         if "allow_pickle" in str(err):

@@ -191,7 +191,8 @@ class RecordDataModule(L.LightningDataModule):
         self.stride = int(stride) if stride else max(1, (self.window or 2) // 2)
         self.train_fraction, self.seed = float(train_fraction), int(seed)
         self.label_conditions = label_conditions
-        self.factors = decimation_factors(records, samples_per_cycle, downsample, frequency_condition)
+        self.factors = decimation_factors(records, samples_per_cycle, downsample, frequency_condition,
+                                          "datamodule.frequency_condition")
         self.prepared = {name: [prepare_record(r, self.factors[r.name]) for r in getattr(self.split, name)]
                          for name in ("train", "val", "test")}
         self.cond = {name: [self._condition_vector(r) for r in getattr(self.split, name)]

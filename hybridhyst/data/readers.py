@@ -10,10 +10,14 @@ Every reader maps named columns (or keys) to a record's channels::
   records are named after the file stem (or ``<stem>/<record id>``).
 
 Conditions are constant within a record; a condition column that varies inside one record is an error.
-Nothing is dropped silently: NaN/inf, non-numeric cells, time not increasing, duplicate timestamps,
-columns of different lengths and records shorter than ``min_samples`` all raise a ``ValueError`` that
-names the file, the record, the column and the rows (0-based data rows; for npz/MAT sample indices),
-and says how to fix it.
+Nothing is dropped silently: NaN/inf, non-numeric cells, values absurd for their record (``Record``), time not
+increasing, duplicate timestamps, columns of different lengths, a record with no motion (input and response
+constant) and records shorter than ``min_samples`` all raise a ``ValueError`` that names the file, the record,
+the column and the rows (0-based data rows; for npz/MAT sample indices), and says how to fix it. So do a file's
+encoding, separator or size
+(``tables``: files over ``max_file_mb``, 1024 MB unless set, are refused; text files over 16 MB are read in
+chunks with a progress bar) and records of one data set in different units (``scales``: ms among s, rad
+among deg).
 """
 
 from __future__ import annotations
@@ -31,10 +35,12 @@ import pandas as pd
 from ..units import check_units
 from .arrays import frame_from_arrays, load_mat, load_npz
 from .records import Record, RecordSet, _rows, validate_channels
+from .scales import check_scales
+from .tables import MAX_FILE_MB, decimal_comma_hint, read_frame
 
 __all__ = ["read", "read_mat", "read_npz", "read_table"]
 
-TABLE_SUFFIXES = {".csv": "csv", ".txt": "csv", ".tsv": "tsv", ".parquet": "parquet", ".pq": "parquet"}
+_NUMBER = re.compile(r"^\s*[-+]?(0|[1-9]\d*|0?\.\d+|[1-9]\d*\.\d*|0\.\d*)([eE][-+]?\d+)?\s*$")  # not '007'
 
 
 @dataclass
@@ -50,15 +56,17 @@ class ColumnMap:
     fs: float | None = None
 
     @classmethod
-    def build(cls, time, input, output, conditions, record, extra, fs) -> ColumnMap:
+    def build(cls, time, input, output, conditions, record, extra, fs, where: str = "reading") -> ColumnMap:
         if time is None and fs is None:
-            raise ValueError("give time= (the time column) or fs= (the sample rate in Hz, time = row / fs)")
+            raise ValueError(f"{where}: give time= (the time column, data.time) or fs= (the sample rate in Hz, "
+                             "data.fs: time = row / fs)")
         if fs is not None and not (np.isfinite(fs) and fs > 0):
-            raise ValueError(f"fs must be a positive sample rate in Hz, got {fs!r}")
+            raise ValueError(f"{where}: fs (data.fs) must be a positive sample rate in Hz, got {fs!r}")
         extra, conditions = _as_map(extra), _as_map(conditions)
         clash = sorted(set(extra) & {"t", "x", "y"})
         if clash:
-            raise ValueError(f"extra channel names {clash} are reserved for time/input/output; rename them")
+            raise ValueError(f"{where}: extra channel names {clash} (data.extra) are reserved for time/input/output; "
+                             "rename them")
         return cls(time, input, output, extra, conditions, record, None if fs is None else float(fs))
 
     def channels(self) -> dict[str, str | None]:
@@ -113,25 +121,6 @@ def expand_files(path) -> list[Path]:
     return files
 
 
-def _read_frame(file: Path, read_options: dict | None) -> pd.DataFrame:
-    kind = TABLE_SUFFIXES.get(file.suffix.lower())
-    if kind is None:
-        raise ValueError(f"file {str(file)!r}: read_table reads {sorted(TABLE_SUFFIXES)} files; use read() for npz/mat")
-    options = dict(read_options or {})
-    try:
-        if kind == "parquet":
-            frame = pd.read_parquet(file, **options)
-        else:
-            frame = pd.read_csv(file, **({"sep": "\t"} if kind == "tsv" else {}), **options)
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"file {str(file)!r} has no header and no data; re-export it with a header row") from None
-    if len(frame) == 0:
-        raise ValueError(
-            f"file {str(file)!r} has columns {list(frame.columns)} but no data rows; remove it or re-export the data"
-        )
-    return frame.reset_index(drop=True)
-
-
 # -- one table -> records ----------------------------------------------------------------------------------
 def _check_columns(frame: pd.DataFrame, mapping: ColumnMap, where: str, noun: str) -> None:
     columns = [str(c) for c in frame.columns]
@@ -154,7 +143,7 @@ def _numeric(frame: pd.DataFrame, column: str, where: str, noun: str) -> np.ndar
         example = raw[text].iloc[0]
         raise ValueError(
             f"{where}: {noun} {column!r} has {int(text.sum())} non-numeric values (rows {_rows(text, rows)}, "
-            f"e.g. {example!r}); fix or remove those cells"
+            f"e.g. {example!r}); fix or remove those cells{decimal_comma_hint(example)}"
         )
     missing = np.isnan(values)
     first = int(np.argmax(missing))
@@ -185,7 +174,10 @@ def _condition(frame: pd.DataFrame, column: str, where: str, noun: str):
             f"row {rows[changed][0]}); conditions must be constant per record: give a record column that "
             "separates the records, or read this column as an extra channel instead"
         )
-    return first.item() if isinstance(first, np.generic) else first
+    first = first.item() if isinstance(first, np.generic) else first
+    if isinstance(first, str) and _NUMBER.match(first):
+        return float(first)  # a number in a column that pandas read as text because another record's is text
+    return first
 
 
 def records_from_frame(frame: pd.DataFrame, mapping: ColumnMap, file: str, stem: str, units: dict,
@@ -235,6 +227,15 @@ def _one_record(part: pd.DataFrame, mapping: ColumnMap, file: str, name: str, un
             f"{where}: {len(part)} sample(s) (rows {_rows(np.ones(len(part), bool), rows)}) but at least "
             f"{min_samples} are needed (min_samples={min_samples}); drop this record or merge it with its neighbour"
         )
+    if len(part) > 1 and np.all(arrays["x"] == arrays["x"][0]) and np.all(arrays["y"] == arrays["y"][0]):
+        # a constant input alone is a free vibration or a relaxation test: its response still carries the dynamics
+        raise ValueError(
+            f"{where}: {labels['x']} (the input) is {arrays['x'][0]:g} and {labels['y']} (the response) "
+            f"{arrays['y'][0]:g} at every one of its {len(part)} rows ({_rows(np.ones(len(part), bool), rows)}): "
+            f"the record holds no motion, so no model can be fitted to it; check that the input {noun} is the "
+            f"excitation (not a condition or a status {noun}), or drop the "
+            "record"
+        )
     conditions = {key: _condition(part, column, where, noun) for key, column in mapping.conditions.items()}
     extra = {k: arrays[k] for k in mapping.extra}
     return Record(name=name, t=arrays["t"], x=arrays["x"], y=arrays["y"], conditions=conditions,
@@ -258,7 +259,8 @@ def _collect(files: list[Path], per_file, name: str | None, default: str) -> Rec
 
 def read_table(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),
                record: str | None = None, units: dict | None = None, extra=None, name: str | None = None,
-               fs: float | None = None, min_samples: int = 2, read_options: dict | None = None) -> RecordSet:
+               fs: float | None = None, min_samples: int = 2, read_options: dict | None = None,
+               max_file_mb: float | None = MAX_FILE_MB) -> RecordSet:
     """Read csv/tsv/parquet files into a ``RecordSet``.
 
     Parameters
@@ -274,26 +276,30 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
     name : name of the record set (default: the file stem, or the pattern).
     fs : sample rate [Hz] when there is no time column.
     min_samples : records with fewer samples are an error.
-    read_options : passed to ``pandas.read_csv`` / ``pandas.read_parquet`` (e.g. ``{"sep": ";"}``).
+    read_options : passed to ``pandas.read_csv`` / ``pandas.read_parquet``, e.g. ``{"sep": ";"}``,
+        ``{"encoding": "utf-16"}``, ``{"decimal": ","}``; a file that needs one is an error naming it.
+    max_file_mb : larger files are refused (with their size) before they are read; None: no limit. Text
+        files above 16 MB are read in chunks, with their progress shown.
 
     Returns
     -------
     RecordSet
         Float64 records; the file path is each record's ``source``.
     """
-    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs)
+    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}")
     files = expand_files(path)
     units = check_units(units, f"file {str(path)!r}", mapping.unit_channels())
 
     def per_file(f: Path, stem: str) -> list[Record]:
-        return records_from_frame(_read_frame(f, read_options), mapping, str(f), stem, units, min_samples)
+        return records_from_frame(read_frame(f, read_options, max_file_mb), mapping, str(f), stem, units,
+                                  min_samples)
 
-    return _collect(files, per_file, name, Path(str(path)).stem)
+    return _checked(_collect(files, per_file, name, Path(str(path)).stem), mapping, "column")
 
 
 def _read_arrays(path, loader, time, input, output, conditions, record, units, extra, name, fs,
                  min_samples) -> RecordSet:
-    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs)
+    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}")
     files = expand_files(path)
     units = check_units(units, f"file {str(path)!r}", mapping.unit_channels())
 
@@ -303,7 +309,13 @@ def _read_arrays(path, loader, time, input, output, conditions, record, units, e
             out += records_from_frame(frame, local, str(f), stem if rid is None else rid, units, min_samples, "key")
         return out
 
-    return _collect(files, per_file, name, Path(str(path)).stem)
+    return _checked(_collect(files, per_file, name, Path(str(path)).stem), mapping, "key")
+
+
+def _checked(records: RecordSet, mapping: ColumnMap, noun: str) -> RecordSet:
+    """The records, once their scales agree (``scales.check_scales``: no unit mix between them)."""
+    check_scales(records, None if mapping.time is None else f"{noun} {mapping.time!r}", f"{noun} {mapping.input!r}")
+    return records
 
 
 def read_npz(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.finite import Diverged, check_finite, nonfinite_records
 from ..files import atomic_write, write_json
 from ..physics.parameters import render_unit
 from ..report.figures import write_loops
@@ -15,7 +16,45 @@ from .diagnose import FEATURE_UNITS, FEATURES, features
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
 
-__all__ = ["write_discovery"]
+__all__ = ["change_sentence", "check_discovery", "diverged_records", "write_discovery"]
+
+STAGES = {"after": "discovered model", "before": "nominal"}  # the models whose predictions a discovery keeps
+
+
+def diverged_records(result: DiscoveryResult, stage: str = "after") -> list[Diverged]:
+    """The records on which ``stage``'s model ("after": the discovered one, "before": the nominal it is compared
+    with) simulated non-finite values, each from its first non-finite sample, split by split ("train", "val",
+    "test")."""
+    out: list[Diverged] = []
+    for split, records in result.splits.items():
+        preds = list((result.predictions.get(stage) or {}).get(split) or [])
+        kept = list(records)[: len(preds)]
+        out += nonfinite_records(preds, [r.name for r in kept], [r.t for r in kept], split)
+    return out
+
+
+def _diverged_report(result: DiscoveryResult) -> dict:
+    return {stage: [d.to_dict() for d in diverged_records(result, stage)] for stage in STAGES}
+
+
+def check_discovery(result: DiscoveryResult, *, keep_going: bool = False, time_unit: str = "s", warn=None
+                    ) -> list[Diverged]:
+    """The app's check of what a discovery simulated (``analysis.finite.check_finite``): the discovered model's
+    predictions of every record (training, validation, test). A record it diverged on is a ``DivergenceError``
+    naming it and the sample it diverged from (exit code 2 in the app), or with ``keep_going`` a warning through
+    ``warn``. The nominal's own divergences ("before") are a finding of the comparison, not a failure of the run:
+    ``report.md`` and ``discovery.json``'s ``diverged`` name them either way."""
+    names, preds, times, splits = [], [], [], []
+    for split, records in result.splits.items():
+        for r, p in zip(records, (result.predictions.get("after") or {}).get(split) or []):
+            names.append(r.name)
+            preds.append(p)
+            times.append(r.t)
+            splits.append(split)
+    result.report["diverged"] = _diverged_report(result)
+    return check_finite(preds, names, times, splits=splits, keep_going=keep_going, time_unit=time_unit,
+                        what="the discovered model's simulation", warn=warn,
+                        hint="raise discover.substeps, check the model's parameters or leave those records out")
 
 
 def _fmt(v) -> str:
@@ -118,6 +157,23 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
             f"{_fmt(100 * (ev.get('explained_share') or 0))} %, {tail}{why}")
 
 
+def change_sentence(change: dict, scored: str, unit: str) -> str:
+    """One removal or replacement of ``simplify`` in words: "removed", "replaced by its special case ..." (a simpler
+    set it contains, ``replacement: special_case``) or "swapped for ..." (a runner-up it beat when it was added,
+    ``replacement: rival_swap``: not a special case of it)."""
+    g, by = change, " + ".join(change.get("by") or [])
+    if not by:
+        what = "removed: its contribution vanished"
+    elif g.get("replacement") == "rival_swap":
+        what = (f"swapped for {by}, a runner-up that validation turned down when {g['effect']} was added although "
+                "the information criterion preferred it (not a special case of it)")
+    else:
+        what = f"replaced by its special case {by}"
+    moved = f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}{_other_parts(g, unit, True)}"
+    return (f"**{g['effect']}** {what} after step {g.get('after_step', '?')} (refitted, {scored} RMSE {moved}, and the "
+            "information criterion fell).")
+
+
 def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     r = result.report
     b, a = r["before"], r["after"]
@@ -136,7 +192,7 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     if b["per_condition"]:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]
-    lines += ["", "## Accepted", ""]
+    lines += ["", *_diverged_lines(r.get("diverged") or _diverged_report(result)), "## Accepted", ""]
     kind = (r.get("validation") or {}).get("kind", "records")
     scored = "leave-one-condition-out" if kind == "loco" else "validation" if r["records"]["val"] else "training"
     if kind == "loco":
@@ -150,11 +206,7 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         lines += ["No validation records: the acceptance rule's RMSE is the training records'.", ""]
     lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
     for g in r.get("removed", []):
-        change = (f"replaced by its special case {' + '.join(g['by'])}" if g.get("by") else
-                  "removed: its contribution vanished")
-        moved = f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}{_other_parts(g, unit, True)}"
-        lines += [f"**{g['effect']}** {change} after step {g['after_step']} (refitted, {scored} RMSE {moved}, and "
-                  "the information criterion fell).", ""]
+        lines += [change_sentence(g, scored, unit), ""]
     if r.get("stopped") == "max_steps":
         lines += [f"The loop stopped at its cap on effects added (`discover.max_steps` = "
                   f"{r['settings']['max_steps']}), not by the acceptance rule: more may be found with a higher cap.",
@@ -187,6 +239,20 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     if r.get("model_config"):
         lines += ["", model_reuse_sentence("discovered", r["model_config"])]
     return "\n".join(lines) + "\n"
+
+
+def _diverged_lines(diverged: dict) -> list[str]:
+    """A paragraph naming each record a model's simulation diverged on (its RMSE is then not a value: the table's
+    "—"), never leaving it out silently; [] when none did."""
+    lines = []
+    for stage, what in STAGES.items():
+        gone = diverged.get(stage) or []
+        if gone:
+            named = ", ".join(f"{d['record']} ({d['split']}) from sample {d['sample']}"
+                              + (f" (t = {d['t']:.4g} s)" if d.get("t") is not None else "") for d in gone)
+            lines += [f"**The {what}'s simulation diverged** on {len(gone)} record{'s' if len(gone) > 1 else ''}: "
+                      f"{named}. Its RMSE on a split holding one of them is not a value (—).", ""]
+    return lines
 
 
 SCALE_RATIO = 1.5  # a residual RMS that changes by more than this factor across a condition's levels is named
@@ -231,6 +297,7 @@ def write_discovery(result: DiscoveryResult, out_dir, title: str = "Discovery", 
     """Write ``discovery.json``, ``report.md``, ``residuals.png`` and ``loops.png`` into ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    result.report.setdefault("diverged", _diverged_report(result))
     residual_figure(result, out / "residuals.png")
     loops_figure(result, out / "loops.png")
     atomic_write(out / "report.md", report_markdown(result, title, unit))

@@ -15,7 +15,7 @@ from .candidates import Candidate, effect_candidates
 from .fitting import Fit, at, fit_candidate, polish
 from .validation import parts, within
 
-__all__ = ["combined", "information_criterion", "simplify"]
+__all__ = ["REPLACEMENTS", "combined", "information_criterion", "simplify"]
 
 
 def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
@@ -43,24 +43,28 @@ def combined(candidates: list[Candidate]) -> Candidate:
                      meta={"effects": [c.name for c in candidates]})
 
 
+REPLACEMENTS = ("special_case", "rival_swap")  # why an effect was replaced: its special case, or a runner-up
+
+
 def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None, only_rivals=False):
-    """``(effects put in its place, model without it, candidate adding them or None)`` for each way to
-    simplify effect ``key``: removal, then each of its special cases, less the effects the model already has
-    (those stay and absorb it; a case they cover entirely is the removal), then each of its ``rivals`` (by
-    effect name: the library effects validation compared it with when the loop added it) not in the model;
-    ``only_rivals``: the rivals' swaps alone."""
+    """``(effects put in its place, model without it, candidate adding them or None, how)`` for each way to
+    simplify effect ``key``: removal (``how`` None), then each of its special cases (``"special_case"``), less the
+    effects the model already has (those stay and absorb it; a case they cover entirely is the removal), then each
+    of its ``rivals`` (``"rival_swap"``: by effect name, the library effects validation compared it with when the
+    loop added it; not a special case of it) not in the model; ``only_rivals``: the rivals' swaps alone."""
     effect = fit.model.effects[key]
     reduced = fit.model.with_effects({k: e for k, e in fit.model.effects.items() if k != key})
     special = [tuple(case) for case in type(effect).special_cases]
     if not only_rivals:
-        yield (), reduced, None
+        yield (), reduced, None, None
     present = {e.name for e in reduced.effects.values()}
     swaps = [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in special]
-    cases = swaps if only_rivals else special + swaps
-    for case in cases:
+    cases = [(c, "rival_swap") for c in swaps] if only_rivals else \
+        [(c, "special_case") for c in special] + [(c, "rival_swap") for c in swaps]
+    for case, how in cases:
         new = [n for n in case if n not in present]
         if new:
-            yield case, reduced, combined(effect_candidates(reduced, scales, new))
+            yield case, reduced, combined(effect_candidates(reduced, scales, new)), how
 
 
 def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None, rivals=None,
@@ -72,14 +76,15 @@ def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, p
     that step may no longer hold on the final one). ``settled``: ``fit`` has already been through this without
     rivals (none of those alternatives qualified), so the first round tries the rivals' swaps alone. Returns
     (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or "replaced", ``by`` the
-    effects put in its place)."""
+    effects put in its place, ``replacement`` why: "special_case" (a simpler set it contains as a special case)
+    or "rival_swap" (a runner-up it beat when it was added: a swap, not a special case); None for a removal)."""
     changes = []
     while len(fit.model.effects) > 1:
         best = None
         keys = list(fit.model.effects)
         only_rivals = settled and not changes
         for key in progress(keys, "simplify") if progress else keys:
-            for by, reduced, cand in _alternatives(fit, key, scales, rivals, only_rivals):
+            for by, reduced, cand, how in _alternatives(fit, key, scales, rivals, only_rivals):
                 try:
                     f = (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
                          else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
@@ -92,12 +97,12 @@ def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, p
                     continue
                 f_val = score(f.model, at(sim, f))
                 if within(f_val, val_rmse, opts["margin"] / 2):
-                    best = (key, by, f_ic, f_val, f)
+                    best = (key, by, f_ic, f_val, f, how)
         if best is None:
             break
-        key, by, ic, new_val, f = best
+        key, by, ic, new_val, f, how = best
         changes.append({"effect": fit.model.effects[key].name, "key": key, "kind": "replaced" if by else "removed",
-                        "by": list(by), "val_rmse_before": val_rmse, "val_rmse_after": new_val,
+                        "by": list(by), "replacement": how, "val_rmse_before": val_rmse, "val_rmse_after": new_val,
                         **parts(before=val_rmse, after=new_val),
                         "train_rmse": math.sqrt(f.sse / n_train)})
         fit, val_rmse = f, new_val

@@ -56,7 +56,12 @@ def output_jacobian(predict: Callable[[torch.Tensor], torch.Tensor], x: torch.Te
 
     ``"autograd"``: reverse mode through the simulator, with batch row i selecting output i (``chunk`` rows
     per call, so M outputs cost M simulated rows forward and backward). ``"fd"``: central differences,
-    one batched call with 2 D rows (step ``rel_step · max(|x|, 1e-3)``).
+    one batched call with 2 D + 1 rows (step ``h = rel_step · max(|x|, 1e-3)``). Where one side of a
+    difference is not finite and the other and ``x`` itself are (``x`` on the edge of a parameter's domain, e.g.
+    a trend that reaches 0 at one record's condition: ``SearchSpace.values`` gives NaN just outside), that
+    element takes the one-sided difference on the finite side (first order, error O(h)); where both sides, or one
+    side and ``x`` itself, are not finite it stays NaN, so a diverged simulation is still caught
+    (``fisher_analysis``).
     """
     x = torch.as_tensor(x, dtype=torch.float64).detach()
     D = x.shape[0]
@@ -64,8 +69,12 @@ def output_jacobian(predict: Callable[[torch.Tensor], torch.Tensor], x: torch.Te
         h = rel_step * x.abs().clamp_min(1e-3)
         E = torch.diag(h)
         with torch.no_grad():
-            Y = predict(torch.cat([x + E, x - E]))
-        return ((Y[:D] - Y[D:]) / (2 * h[:, None])).T
+            Y = predict(torch.cat([x[None], x + E, x - E]))
+        y0, up, down, h = Y[:1], Y[1:D + 1], Y[D + 1:], h[:, None]
+        ok_up, ok_down = torch.isfinite(up), torch.isfinite(down)
+        J = torch.where(ok_up & ok_down, (up - down) / (2 * h),
+                        torch.where(ok_up, (up - y0) / h, torch.where(ok_down, (y0 - down) / h, math.nan)))
+        return J.T
     if method != "autograd":
         raise ValueError(f"unknown jacobian method {method!r}; choose 'autograd' or 'fd'")
     with torch.no_grad():

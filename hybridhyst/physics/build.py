@@ -34,7 +34,13 @@ def build_effect(key: str, cfg):
         close = difflib.get_close_matches(name, list(EFFECTS), n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ValueError(f"effect {key!r}: unknown effect {name!r}{hint}; the library has {sorted(EFFECTS)}")
-    return EFFECTS[name](**cfg)
+    try:
+        return EFFECTS[name](**cfg)
+    except ValueError as err:  # the effect names its kind; the model config's key says which one of them
+        text = str(err)
+        if text.startswith(f"effect {name!r}"):
+            raise ValueError(f"effect {key!r} ({name})" + text[len(f"effect {name!r}"):]) from None
+        raise
 
 
 def build_model(structure: str = "constitutive", effects: dict | None = None, units: dict | None = None,

@@ -1,6 +1,7 @@
 """Find the run directories that ``hybridhyst-train`` writes and read their ``metrics.json`` into one table.
 
-A run directory is any directory holding a ``metrics.json``; Hydra multiruns put them below
+A run directory is any directory holding a ``metrics.json``, or the ``config.yaml`` of a ``hybridhyst-train`` run
+that never wrote one (killed, or still running: a row with status ``"failed"``); Hydra multiruns put them below
 ``multirun/<date>/<time>/<job number>/``. Nothing is skipped silently: a file that cannot be read or does
 not follow the contract becomes a row with status ``"invalid"`` and the reason in ``error``.
 """
@@ -33,7 +34,7 @@ INFO_FIELDS = ("module", "name", "residual", "placement", "encoder_past", "lbfgs
 # Outcomes of a run rather than settings: runs that differ only in these belong to one configuration.
 MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs", "lbfgs_steps_done", "train_windows")
 UNIT_FIELDS = ("unit_x", "unit_F", "unit_t")
-_BASE = ("path", "status", "error", "predictions")
+_BASE = ("path", "status", "error", "predictions", "kept_start")
 _METRIC_COLUMNS = tuple(f"{split}_{m}" for split in SPLITS for m in METRICS) + ("test_per_condition", "logged")
 
 
@@ -62,12 +63,26 @@ def find_run_dirs(dirs: str | Path | Iterable[str | Path]) -> list[Path]:
             what = "is not a directory" if root.exists() else "does not exist"
             raise ValueError(f"'{d}' {what}; pass run directories or the multirun folders that contain them")
         runs = [f.parent for f in root.rglob("metrics.json") if f.is_file()]
+        runs += [f.parent for f in root.rglob("config.yaml")  # not Hydra's own copy in <run>/.hydra/
+                 if ".hydra" not in f.parent.parts and _unfinished_train(f.parent)]
         if not runs:
             raise ValueError(f"no run directory (a folder with metrics.json) found under '{d}'; "
                              "point at the output of hybridhyst-train")
         for run in runs:
             found.setdefault(run.resolve(), run)
     return sorted(found.values(), key=_natural_key)
+
+
+def _unfinished_train(run_dir: Path) -> bool:
+    """A ``hybridhyst-train`` run directory (its resolved ``config.yaml`` says ``app: train``) without a
+    ``metrics.json``: the run was killed before it could write one, or is still running."""
+    if (run_dir / "metrics.json").exists():
+        return False
+    try:
+        head = (run_dir / "config.yaml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return re.search(r"^app: train\s*$", head, flags=re.M) is not None
 
 
 def _number(value) -> float:
@@ -126,7 +141,11 @@ def read_run(run_dir: str | Path) -> dict:
     run_dir = Path(run_dir)
     predictions = run_dir / "predictions.parquet"
     row = {"path": str(run_dir), "status": "invalid", "error": None,
-           "predictions": str(predictions) if predictions.is_file() else None}
+           "predictions": str(predictions) if predictions.is_file() else None, "kept_start": False}
+    if _unfinished_train(run_dir):
+        row.update(status="failed", error="no metrics.json: the run was killed before it finished (or is still "
+                                          "running)")
+        return row
     try:
         metrics = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))
         _check(metrics)
@@ -136,6 +155,7 @@ def read_run(run_dir: str | Path) -> dict:
     row["status"] = metrics["status"]
     if row["status"] == "failed":
         row["error"] = str(metrics.get("error") or "(failed without an error message)")
+    row["kept_start"] = bool((metrics.get("start") or {}).get("restored", False))
     row.update(_info_columns(metrics.get("info") or {}))
     row.update(_split_columns(metrics))
     return row
@@ -162,7 +182,9 @@ def collect_runs(dirs: str | Path | Iterable[str | Path]) -> pd.DataFrame:
     """One row per run directory found under ``dirs`` (searched recursively).
 
     Columns: ``path``, ``status`` ("ok", "failed" or "invalid"), ``error``, ``predictions`` (path of
-    ``predictions.parquet`` or None), the info fields (``hidden`` as a tuple, ``units`` as ``unit_x``,
+    ``predictions.parquet`` or None), ``kept_start`` (the trained model did worse on validation than the one
+    it started from, whose weights the run kept: ``metrics.json``'s ``start.restored``), the info fields
+    (``hidden`` as a tuple, ``units`` as ``unit_x``,
     ``unit_F``, ``unit_t``), ``{test,val,train}_{rmse,mae,nrmse,n}`` (errors in the force unit
     ``unit_F``; NaN where absent), ``test_per_condition`` (dict), ``logged`` (the last epoch's logged values,
     ``{"train/phys_loss": ...}``; empty for runs written before it) and ``config``, a JSON key of the

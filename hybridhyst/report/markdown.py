@@ -86,6 +86,21 @@ def _condition_lines(table: pd.DataFrame) -> list[str]:
     return [*_table(["condition", *configs, "best"], rows), "", f"Best per held-out condition: {tally}."]
 
 
+def _kept_start_lines(summary: pd.DataFrame) -> list[str]:
+    """A sentence per configuration whose runs kept their starting weights (training never beat the start on
+    validation): their errors are the starting model's, not a trained one's."""
+    if summary.empty or "n_kept_start" not in summary or not summary["n_kept_start"].any():
+        return []
+    lines = []
+    for r in summary.itertuples():
+        if r.n_kept_start:
+            every = "all" if r.n_kept_start == r.n_seeds else f"{r.n_kept_start} of"
+            lines.append(f"- **{r.configuration}**: {every} {r.n_seeds} successful run(s) kept their starting "
+                         "weights (the trained model did worse on validation than the one it started from): these "
+                         "errors are the starting model's, not a trained one's.")
+    return ["## Runs that kept their starting weights", "", *lines, ""]
+
+
 def _failed_lines(runs: pd.DataFrame) -> list[str]:
     failed = failed_table(runs)
     if failed.empty:
@@ -197,6 +212,7 @@ def write_report(dirs: str | Path | Iterable[str | Path], out_dir: str | Path, t
         "", f"# {title or 'Comparison of hybridhyst runs'}", "", _overview(runs, unit), "",
         "## Summary per configuration", "", "Best (lowest mean test RMSE) first.", "",
         *_summary_lines(summary, unit), "",
+        *_kept_start_lines(summary),
         f"## Test RMSE per held-out condition{u}", "",
         "Mean over seeds; the best configuration for each condition in **bold**.", "",
         *_condition_lines(conditions), "",

@@ -87,7 +87,8 @@ def error_unit(runs: pd.DataFrame) -> str | None:
 
 def _configuration_row(key: str, group: pd.DataFrame, n_failed: int) -> dict:
     """Settings and seed statistics (mean, std with ddof=1) of one configuration's successful runs."""
-    row = {"configuration": None, **json.loads(key), "n_seeds": len(group), "n_failed": n_failed}
+    row = {"configuration": None, **json.loads(key), "n_seeds": len(group), "n_failed": n_failed,
+           "n_kept_start": int(group["kept_start"].astype(bool).sum()) if "kept_start" in group else 0}
     row["arch"] = arch_label(row.get("hidden"))
     for column in STAT_COLUMNS:
         values = group[column].astype(float)
@@ -105,7 +106,8 @@ def summary_table(runs: pd.DataFrame) -> pd.DataFrame:
 
     Columns: ``configuration`` (unique label), the settings (``name``, ``module``, ``residual``, ``arch``
     as ``"4×128"``, ``lambda_phys``, ``train_fraction``, ...), ``n_seeds`` (successful runs),
-    ``n_failed`` (failed runs of the same configuration), ``<split>_<metric>_mean`` and ``_std`` over
+    ``n_failed`` (failed runs of the same configuration), ``n_kept_start`` (successful runs that kept their
+    starting weights: training did not beat the start on validation), ``<split>_<metric>_mean`` and ``_std`` over
     seeds (ddof=1, NaN for one seed) for test RMSE/MAE/NRMSE and val RMSE [force unit; NRMSE 1],
     ``n_parameters``, ``train_time_s_mean`` [s] and ``config`` (the JSON key).
     """

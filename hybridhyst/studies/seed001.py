@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -31,6 +32,7 @@ from ..physics.compositions.seed001 import (
 )
 from ..progress import progress as progress_bar
 from ..simulate import simulate
+from ..synth import PRESSURES as TABLE1_GRID
 from ..synth import forced_response, free_vibration_frequencies, identifiable_combinations, load_vpptd
 from . import resolve_options
 from .output import StudyOutput
@@ -39,7 +41,7 @@ from .seed001_figures import MODELS, SAMPLES_PER_CYCLE, SCHEDULES, write_figures
 __all__ = ["vpptd_dynamics"]
 
 REQUIRED = ("mixtures", "noise_sd", "fit_pressures", "fit_cycles", "eval_pressures", "identify", "box",
-            "free_vibration", "forced")
+            "sign_free", "free_vibration", "forced")
 FORCED_KEYS = ("frequency_hz", "amplitude_deg", "duration_s", "dt", "step_mpa", "ramp_s", "sweep_peak_mpa",
                "steady_cycles")
 COMBINATIONS = {"elastic_k": "αk", "hysteretic_k0": "(1−α)kA", "hysteretic_torque": "F_h", "Ms": "M_s", "c": "c"}
@@ -53,6 +55,9 @@ def _options(options: dict) -> dict:
     if set(opts["box"]) != set(PARAMETER_PATHS):
         raise ValueError(f"seed001 study: box must give [[low, high], ...] per power of p for each of "
                          f"{list(PARAMETER_PATHS)}; got {sorted(opts['box'])}")
+    if not set(opts["sign_free"]) <= set(PARAMETER_PATHS):
+        raise ValueError(f"seed001 study: sign_free {list(opts['sign_free'])} must name parameters of "
+                         f"{list(PARAMETER_PATHS)}")
     missing = [k for k in FORCED_KEYS if k not in opts["forced"]]
     if missing or len(opts["forced"]["step_mpa"]) < 2:
         raise ValueError(f"seed001 study: forced needs {list(FORCED_KEYS)} with at least two step_mpa levels; "
@@ -63,10 +68,22 @@ def _options(options: dict) -> dict:
     return opts
 
 
-def _start_model(box: dict):
-    """The modified Bouc–Wen law with polynomials of the box's degrees, started at the box centres."""
+def _start_model(box: dict, sign_free=()):
+    """The modified Bouc–Wen law with polynomials of the box's degrees, started at the box centres.
+
+    The parameters named in ``sign_free`` (Table 1's names) are declared real-valued on this model: their
+    effect's domain (the viscous c ≥ 0) would otherwise make every search member with a negative value at a
+    fitted pressure simulate nothing (``SearchSpace.values``), and Table 1 prints c < 0 for ABS at every p
+    (README "Paper inconsistencies"): the identification could not reach the law that made the data.
+    """
     centres = {k: [0.5 * (float(lo) + float(hi)) for lo, hi in v] for k, v in box.items()}
-    return modified_bouc_wen(coefficients=centres).double()
+    model = modified_bouc_wen(coefficients=centres).double()
+    for name in sign_free:
+        effect, param = PARAMETER_PATHS[name]
+        specs = model.effects[effect].param_specs
+        reach = max(abs(b) for b in specs[param].bounds)
+        specs[param] = replace(specs[param], constraint="real", bounds=(-reach, reach))
+    return model
 
 
 def _bounds(box: dict) -> dict[str, tuple[float, float]]:
@@ -78,8 +95,9 @@ def _identify(mixture: str, opts: dict) -> dict:
     """Joint fit of every fitting pressure of one mixture; returns the identified functions and diagnostics."""
     records = load_vpptd(mixtures=[mixture], pressures=list(opts["fit_pressures"]), cycles=int(opts["fit_cycles"]),
                          noise_sd=float(opts["noise_sd"]), seed=opts["seed"])
-    res = identify(_start_model(opts["box"]), records, bounds=_bounds(opts["box"]), noise_sd=float(opts["noise_sd"]),
-                   seed=opts["seed"], jacobian="fd", progress=opts["progress"], **opts["identify"])
+    res = identify(_start_model(opts["box"], opts["sign_free"]), records, bounds=_bounds(opts["box"]),
+                   noise_sd=float(opts["noise_sd"]), seed=opts["seed"], jacobian="fd", progress=opts["progress"],
+                   **opts["identify"])
     return {"coefficients": parameter_functions(res.model), "rmse": res.rmse, "per_record": res.per_record,
             "wall_s": res.wall_s, "identifiable": len(res.identifiable), "coordinates": len(res.x)}
 
@@ -145,6 +163,14 @@ def _schedules(forced: dict) -> tuple[np.ndarray, np.ndarray, list[float]]:
         step += (after - before) * np.clip((t - ts) / float(forced["ramp_s"]), 0.0, 1.0)
     sweep = float(forced["sweep_peak_mpa"]) * np.sin(np.pi * t / t[-1])
     return t, np.stack([step, sweep]), switch
+
+
+def _extrapolated(forced: dict) -> str:
+    """A note naming the step levels outside Table 1's fitted range, where both models are extrapolated."""
+    lo, hi = min(TABLE1_GRID), max(TABLE1_GRID)
+    outside = [float(v) for v in forced["step_mpa"] if not lo <= float(v) <= hi]
+    return (f" (p = {', '.join(f'{p:g}' for p in outside)} MPa lies outside Table 1's fitted range {lo:g}–{hi:g} MPa: "
+            "both models are extrapolated there, as in the sweep's first and last cycles)" if outside else "")
 
 
 def _amplitude(y: np.ndarray, t: np.ndarray, end: float, seconds: float) -> float:
@@ -273,7 +299,7 @@ def _report(out: StudyOutput, opts: dict, results: dict) -> dict:
     out.table("forced_step", step, f"Forced rig, φ₁ = {opts['forced']['amplitude_deg']}° sin(2π·"
               f"{opts['forced']['frequency_hz']} Hz·t), fast steps p = {levels} MPa ({opts['forced']['ramp_s']} s "
               f"ramps): steady amplitude of φ₂ and of the damper twist φ₂ − φ₁ over the last "
-              f"{opts['forced']['steady_cycles']} cycles of each level")
+              f"{opts['forced']['steady_cycles']} cycles of each level{_extrapolated(opts['forced'])}")
     cycles = pd.DataFrame([row for r in results.values() for row in r["forced"]["cycles"]])
     out.table("forced_sweep", _sweep_table(cycles[cycles["schedule"] == "sweep"]), f"Forced rig, half-sine sweep "
               f"p = {opts['forced']['sweep_peak_mpa']}·sin(πt/T): twist amplitude in the first cycle after the "

@@ -219,11 +219,23 @@ class SequenceModule(L.LightningModule):
         self._val["sae"] += float(err.abs().sum())
         self._val["n"] += err.numel()
 
+    def validated_split(self) -> str:
+        """The split the validation loop scores, which names its metrics: "val" where the data module holds
+        validation records, "train" where it has none and scores the training records (whole records, as
+        ``RecordDataModule.val_dataloader`` gives them) -- logged as ``train/rmse``, never under a validation
+        name. Without a data module (a plain dataloader) "val"."""
+        dm = getattr(getattr(self, "_trainer", None), "datamodule", None)
+        split = getattr(dm, "split", None)
+        if split is None:
+            return "val"
+        return "val" if len(split.val) else "train"
+
     def on_validation_epoch_end(self):
         n = max(self._val["n"], 1)
         rmse = math.sqrt(self._val["sse"] / n)
-        self.log("val/rmse", rmse if math.isfinite(rmse) else float("inf"), prog_bar=True, sync_dist=True)
-        self.log("val/mae", self._val["sae"] / n, sync_dist=True)
+        part = self.validated_split()
+        self.log(f"{part}/rmse", rmse if math.isfinite(rmse) else float("inf"), prog_bar=True, sync_dist=True)
+        self.log(f"{part}/mae", self._val["sae"] / n, sync_dist=True)
 
     def on_save_checkpoint(self, checkpoint):
         checkpoint["hybridhyst_history"] = list(self.history)
@@ -450,14 +462,20 @@ def _flat_cond(batch, m):
 
 def load_nominal_state(path) -> dict:
     """A nominal's state dict from a ``model.pt`` or a run directory holding one (``hybridhyst-identify``,
-    ``hybridhyst-train``)."""
+    ``hybridhyst-train``): tensors only (``files.load_weights``), and from a run directory only when its run
+    finished (``runs.require_complete``)."""
     from pathlib import Path
+
+    from ..files import load_weights
+    from ..runs import is_run_dir, require_complete
 
     p = Path(path)
     if p.is_dir():
         p = p / "model.pt"
     if not p.exists():
         raise FileNotFoundError(f"nominal state {p} not found; give a model.pt or a run directory holding one")
-    return torch.load(p, map_location="cpu", weights_only=True)
+    if is_run_dir(p.parent):  # a run killed while writing leaves a model.pt that belongs to no finished result
+        require_complete(p.parent, f"the nominal state {p.name}", p.name)
+    return load_weights(p)
 
 

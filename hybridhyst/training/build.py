@@ -18,11 +18,11 @@ from omegaconf import DictConfig
 from ..data.datamodule import RecordDataModule
 from ..nets import parse_hidden
 from .callbacks import LoopFigures
-from .config import check_kwargs, check_model_data, instantiate, load_records, split_options, to_plain
+from .config import check_kwargs, check_model_data, config_number, instantiate, load_records, split_options, to_plain
 from .modules import MODULES, load_nominal_state
 
-__all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "encoder_past", "nominal_start",
-           "run_info"]
+__all__ = ["NOMINAL_MODULES", "build_datamodule", "build_module", "build_trainer", "encoder_past", "max_epochs",
+           "nominal_start", "run_info"]
 
 DISPLAY = {"physics": "physics-only", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std-pinn"}
 NOMINAL_MODULES = ("physics", "hybrid", "std_pinn")
@@ -164,6 +164,26 @@ def lbfgs_settings(cfg: DictConfig) -> dict | None:
     return out
 
 
+def max_epochs(cfg: DictConfig) -> int:
+    """``trainer.max_epochs`` checked: a whole number >= 0, or Lightning's -1 (no limit) where a stopping rule in
+    ``trainer.extra`` ends the run (``max_steps``, ``max_time``). Alone, -1 would train without end, and Lightning
+    refuses anything below it with a traceback."""
+    t = cfg.trainer
+    epochs = config_number(t, "max_epochs", "trainer.max_epochs", whole=True)
+    if epochs >= 0:
+        return epochs
+    extra = to_plain(t.get("extra")) or {}
+    stops = [k for k in ("max_steps", "max_time") if extra.get(k) not in (None, -1)]
+    if epochs == -1 and stops:
+        return epochs
+    rule = "'+trainer.extra.max_steps=<steps>' or '+trainer.extra.max_time=00:02:00:00' (DD:HH:MM:SS)"
+    if epochs == -1:
+        raise ValueError(f"config key trainer.max_epochs=-1 (no limit) trains without end: give "
+                         f"trainer.max_epochs=<epochs>, or a stopping rule with it: {rule}")
+    raise ValueError(f"config key trainer.max_epochs must be >= 0, got {epochs}: give trainer.max_epochs=<epochs> "
+                     f"(-1: no limit, only with a stopping rule: {rule})")
+
+
 def _no_advert(record: logging.LogRecord) -> bool:
     return "litlogger" not in record.getMessage()
 
@@ -175,15 +195,18 @@ def _quiet_lightning() -> None:
         log.addFilter(_no_advert)
 
 
-def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), after: L.Trainer | None = None
-                  ) -> L.Trainer:
+def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), after: L.Trainer | None = None,
+                  monitor: str | None = None) -> L.Trainer:
     """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
     ``callbacks``; ``cfg.trainer`` gives the accelerator, devices, strategy and the loop's settings.
 
     ``after``: the trainer of the Adam epochs; the new one runs the L-BFGS stage (``trainer.lbfgs``: its steps
     as epochs, no gradient clipping, its logger version ``lbfgs``). It keeps ``after``'s best-checkpoint callback,
     so ``best.ckpt`` stays the best of both stages, and writes no ``last.ckpt``: that stays the end of the Adam
-    epochs, and a run resumed from it repeats the (deterministic, full-batch) L-BFGS stage."""
+    epochs, and a run resumed from it repeats the (deterministic, full-batch) L-BFGS stage.
+
+    ``monitor``: the metric the best checkpoint is chosen by, the one the module logs (``val/rmse``, or
+    ``train/rmse`` where the data module has no validation records); by default from ``split.val``."""
     from lightning.pytorch.callbacks import ModelCheckpoint
 
     _quiet_lightning()
@@ -197,7 +220,9 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
     # when a top-k checkpoint is saved at the same step (last.ckpt would be the best one, not the last), so
     # last.ckpt has a checkpoint callback of its own (listed second: it saves the best one's updated state)
     if after is None:
-        checkpoints = [ModelCheckpoint(dirpath=ckpt_dir, monitor="val/rmse", mode="min", save_last=False,
+        # the validation loop scores the training records where there are no validation ones, named so
+        monitor = monitor or ("val/rmse" if split_options(cfg)["val"] else "train/rmse")
+        checkpoints = [ModelCheckpoint(dirpath=ckpt_dir, monitor=monitor, mode="min", save_last=False,
                                        filename="best", save_top_k=1),
                        ModelCheckpoint(dirpath=ckpt_dir, monitor=None, save_top_k=1, filename="last",
                                        enable_version_counter=False)]
@@ -220,7 +245,7 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
     if bool(t.enable_progress_bar):
         callbacks.extend(_progress_bar())
     extra = to_plain(t.get("extra")) or {}
-    stage = {"max_epochs": int(t.max_epochs), "gradient_clip_val": t.gradient_clip_val,
+    stage = {"max_epochs": max_epochs(cfg), "gradient_clip_val": t.gradient_clip_val,
              "check_val_every_n_epoch": int(t.check_val_every_n_epoch)}
     if lbfgs is not None:
         stage = {"max_epochs": lbfgs["steps"], "gradient_clip_val": None,
@@ -256,6 +281,7 @@ def run_info(cfg: DictConfig) -> dict:
         name = "hybrid-dynamics" if cfg.placement == "dynamics" else f"hybrid-{cfg.residual.kind}"
     model = (cfg.model.get("name") or cfg.model.get("_target_", "").rsplit(".", 1)[-1]) \
         if kind in NOMINAL_MODULES else None
+    max_epochs(cfg)  # checked before the run starts (the trainer is built after the nominal's identification)
     return {"module": kind, "name": name, "residual": cfg.residual.kind if uses_net else None,
             "hidden": parse_hidden(cfg.residual.hidden) if uses_net else None,
             "lambda_phys": float(cfg.loss.lambda_phys) if kind in ("hybrid", "std_pinn") else 0.0,

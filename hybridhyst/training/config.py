@@ -11,7 +11,8 @@ import difflib
 import inspect
 from collections.abc import Callable
 
-__all__ = ["check_kwargs", "check_model_data", "instantiate", "load_records", "split_options", "to_plain"]
+__all__ = ["check_kwargs", "check_model_data", "config_number", "instantiate", "load_records", "not_a_number",
+           "split_options", "to_plain"]
 
 SPLIT_KEYS = ("select", "held_out", "val")
 
@@ -27,10 +28,22 @@ def to_plain(node):
 
 
 def instantiate(node, **kwargs):
-    """``hydra.utils.instantiate`` that re-raises a target's ``ValueError`` as itself (not wrapped)."""
+    """``hydra.utils.instantiate`` of a config that may name only hybridhyst's own builders (``builders``),
+    checked on every ``_target_`` of ``node`` before anything is built: a model config in someone else's run
+    directory is data, never code. The check is made on the config with its interpolations resolved (a
+    ``${oc.create:{_target_: ...}}`` or a reference to another node could otherwise bring a target in after it),
+    and exactly that checked, plain config is what is built. A model config read from a run directory is used
+    only if that run finished (``hybridhyst.runs.require_complete``). A target's ``ValueError`` is re-raised as
+    itself (not wrapped)."""
     from hydra.errors import InstantiationException
     from hydra.utils import instantiate as _instantiate
+    from omegaconf import DictConfig, ListConfig, OmegaConf
 
+    _check_source(node)
+    group = _group(node)
+    if isinstance(node, (DictConfig, ListConfig)):
+        node = OmegaConf.to_container(node, resolve=True)
+    _check_targets(node, group)
     try:
         return _instantiate(node, **kwargs)
     except InstantiationException as exc:
@@ -41,6 +54,84 @@ def instantiate(node, **kwargs):
             raise cause from None
         detail = f": {cause}" if cause is not None else ""
         raise ValueError(str(exc).splitlines()[0].rstrip(":") + detail) from exc
+
+
+def builders() -> set[str]:
+    """The ``_target_`` values a config may name: the model builder, the named compositions and the data
+    readers and loaders."""
+    from ..physics.compositions import COMPOSITIONS
+
+    return {"hybridhyst.physics.build_model", *(f"hybridhyst.physics.compositions.{n}" for n in COMPOSITIONS),
+            *(f"hybridhyst.data.{n}" for n in ("load_builtin", "read", "read_table", "read_npz", "read_mat"))}
+
+
+def _group(node) -> str:
+    """The config key of ``node`` (``model``, ``data``); '' for a plain container."""
+    from omegaconf import DictConfig
+
+    return str(node._get_full_key(None)) if isinstance(node, DictConfig) else ""
+
+
+def _check_targets(plain, group: str) -> None:
+    """``ValueError`` naming the first ``_target_`` in ``plain`` (a resolved plain config; nested ones too) that is
+    not one of ``builders``; ``group`` is its config key, for the message."""
+    allowed = builders()
+
+    def walk(value, path):
+        if isinstance(value, dict):
+            target = value.get("_target_")
+            if target is not None and target not in allowed:
+                where = _source_file(group) or "the config"
+                key = ".".join(p for p in (*path, "_target_") if p)
+                raise ValueError(f"{where}: {key} names {target!r}, which is not one of hybridhyst's builders "
+                                 f"({', '.join(sorted(allowed))}); a config may only build hybridhyst models and "
+                                 "data sets, so nothing was built")
+            for k, v in value.items():
+                walk(v, (*path, str(k)))
+        elif isinstance(value, list):
+            for i, v in enumerate(value):
+                walk(v, (*path, f"{i}"))
+
+    walk(plain, (group,) if group else ())
+
+
+def _source_file(group: str) -> str | None:
+    """The file the running Hydra app read config group ``group`` from (the chosen option found on the
+    search path), or None (no Hydra run, no such group, a packaged config)."""
+    from pathlib import Path
+
+    from hydra.core.hydra_config import HydraConfig
+
+    if not group or not HydraConfig.initialized():
+        return None
+    runtime = HydraConfig.get().runtime
+    choice = runtime.choices.get(group) if runtime.choices else None
+    if not choice:
+        return None
+    for source in runtime.config_sources:
+        if source.schema != "file":
+            continue
+        path = Path(source.path) / group / f"{choice}.yaml"
+        if path.is_file():
+            return str(path)
+    return None
+
+
+def _check_source(node) -> None:
+    """A config group option read from a run directory (``'hydra.searchpath=[file://<run dir>]' model=discovered``)
+    is used only when that run finished (its ``complete.json``): a run killed while writing leaves a model config
+    without the results it belongs to."""
+    from pathlib import Path
+
+    from ..runs import is_run_dir, require_complete
+
+    source = _source_file(_group(node))
+    if source is None:
+        return
+    folder = Path(source).parent.parent
+    if is_run_dir(folder):
+        name = f"{Path(source).parent.name}/{Path(source).name}"
+        require_complete(folder, f"the config {name}", name)
 
 
 def check_kwargs(options: dict, fn: Callable, where: str, reserved: tuple[str, ...] = ()) -> dict:
@@ -58,6 +149,29 @@ def check_kwargs(options: dict, fn: Callable, where: str, reserved: tuple[str, .
             hint = f"did you mean {where}.{close[0]}? " if close else ""
             raise ValueError(f"unknown config key {where}.{key}: {hint}{where} takes {sorted(names)}")
     return options
+
+
+def not_a_number(key: str, value, whole: bool = False) -> ValueError:
+    """The one-line error for config key ``key`` whose ``value`` is not a number (``whole``: not a whole one):
+    the key, what it needs, and how to give it."""
+    kind, form = ("a whole number", "<int>") if whole else ("a number", "<number>")
+    return ValueError(f"config key {key} must be {kind}, got {value!r}: give {key}={form}")
+
+
+def config_number(node, key: str, where: str, whole: bool = False) -> int | float:
+    """``node[key]`` as an int (``whole``) or a float; a value that is not one (``'abc'``, ``true``, ``2.5`` for
+    a whole number) is a ``ValueError`` naming the config key ``where`` (e.g. ``trainer.max_epochs``) and how to
+    give it, not Python's ``invalid literal for int()``."""
+    value = node[key]
+    try:
+        if isinstance(value, bool):
+            raise TypeError(value)
+        number = float(value)
+        if whole and not number.is_integer():
+            raise ValueError(value)
+    except (TypeError, ValueError, OverflowError):
+        raise not_a_number(where, value, whole) from None
+    return int(number) if whole else number
 
 
 def split_options(cfg, keys: tuple[str, ...] = SPLIT_KEYS) -> dict:

@@ -15,13 +15,15 @@ Effects never loop over time (STYLE rule 4): they return rates and forces for on
 
 from __future__ import annotations
 
+import difflib
+import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import torch
 from torch import nn
 
-from ..parameters import Fixed, ParameterSpec, build_function, render_unit
+from ..parameters import Fixed, ParameterFunction, ParameterSpec, build_function, render_unit
 
 __all__ = [
     "Effect", "Kinematics", "abs_pow", "absolute", "clamp", "exp", "rates", "sigmoid", "sign", "smooth_sign", "step",
@@ -141,9 +143,12 @@ class Effect(nn.Module):
         super().__init__()
         unknown = set(values) - set(self.specs) - set(self.start)
         if unknown:
+            close = [difflib.get_close_matches(u, [*self.specs, *self.start], n=1) for u in sorted(unknown)]
+            hint = "; ".join(f"did you mean {c[0]} for {u}?" for u, c in zip(sorted(unknown), close) if c)
             raise ValueError(
-                f"effect {self.name!r} has no parameter(s) {sorted(unknown)}; its parameters are "
-                f"{sorted(self.specs)}" + (f" (and the start state {sorted(self.start)})" if self.start else "")
+                f"effect {self.name!r} has no parameter(s) {sorted(unknown)}" + (f" ({hint})" if hint else "")
+                + f"; its parameters are {sorted(self.specs)}"
+                + (f" (and the start state {sorted(self.start)})" if self.start else "")
             )
         bad_fixed = set(fixed) - set(self.specs) - set(self.start)
         if bad_fixed:
@@ -152,6 +157,7 @@ class Effect(nn.Module):
         self.param_specs: dict[str, ParameterSpec] = dict(self.specs)
         for pname, spec in self.specs.items():
             value = values.get(pname)
+            self._check_value(pname, spec, value)
             if pname in fixed:
                 value = spec.default if value is None else value
                 if not isinstance(value, (int, float)):
@@ -238,6 +244,7 @@ class Effect(nn.Module):
 
     def add_parameter(self, pname: str, value, spec: ParameterSpec, fixed: bool = False) -> None:
         """Register a parameter that exists only in some configurations (e.g. a free Bouc–Wen κ)."""
+        self._check_value(pname, spec, value)
         self.param_specs[pname] = spec
         if fixed:
             if not isinstance(value, (int, float)):
@@ -246,5 +253,38 @@ class Effect(nn.Module):
         else:
             self.params[pname] = build_function(value, spec)
 
+    def _check_value(self, pname: str, spec: ParameterSpec, value) -> None:
+        """A value given for ``pname`` is a number or a parameter function, and the numbers that are values of the
+        parameter itself (a constant, a fixed value, per-condition levels) lie in its declared domain
+        (``ParameterSpec.admits``: > 0 for a positive one, >= 0 for a non-negative one), fixed or trained: a
+        negative damping coefficient or friction level feeds energy in, which no damper does. A bounded
+        parameter's range is checked where it is built (a fixed one may sit at or beyond a bound). Coefficients
+        of a function of a condition are not checked: a negative slope may keep the value positive over the
+        data (``identify.space.outside_domain`` checks the values there)."""
+        if value is None or isinstance(value, ParameterFunction):
+            return
+        if not isinstance(value, (int, float)) and not hasattr(value, "items"):
+            raise ValueError(f"effect {self.name!r}: parameter {pname} needs a number or a parameter function "
+                             f"({{kind: linear, slope: ..., intercept: ..., condition: ...}}), got {value!r}")
+        numbers = [value]
+        if hasattr(value, "items"):
+            kind = value.get("kind", "constant")
+            numbers = {"constant": [value.get("value")], "fixed": [value.get("value")],
+                       "per_condition": value.get("values")}.get(kind, [])
+            numbers = numbers if isinstance(numbers, (list, tuple)) else [numbers]
+        for number in numbers:
+            if not isinstance(number, (int, float)) or isinstance(number, bool):
+                continue  # a malformed function config: build_function names what is wrong with it
+            if spec.constraint == "bounded" and math.isfinite(number):
+                continue  # checked where it is built: strictly inside when trained, anywhere when fixed
+            if not bool(spec.admits(torch.tensor(float(number)))):
+                domain = _DOMAIN_WORDS.get(spec.constraint, "a number")
+                off = " (0 turns the term off)" if spec.constraint == "nonnegative" and spec.neutral == 0.0 else ""
+                raise ValueError(f"effect {self.name!r}: parameter {pname} ({spec.doc}) needs {domain}, got "
+                                 f"{number:g}: give {pname} {domain} in the model config{off}")
+
     def extra_repr(self) -> str:
         return self.equation
+
+
+_DOMAIN_WORDS = {"positive": "a value > 0", "nonnegative": "a value >= 0"}

@@ -37,11 +37,12 @@ class BoucWenHysteresis(Effect):
         # bounded (a sigmoid): outside [0, 1] one of the two springs has a negative stiffness, and the
         # search bounds alone do not hold α there under gradient training
         "alpha": ParameterSpec(0.5, "-", (0.0, 1.0), "bounded", doc="ratio of elastic to total stiffness"),
-        "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "real", neutral=0.0,
+        # k, A non-negative (their search bounds' lower end): a softening is the cubic k1's, which may be negative
+        "k": ParameterSpec(1.0, "F/x", (0.0, 1e9), "nonnegative", neutral=0.0,
                            doc="stiffness (at k = 0, with k1 = 0, the effect adds nothing)"),
         "k1": ParameterSpec(0.0, "F/x^3", (-1e9, 1e9), "real", neutral=0.0, doc="cubic stiffness (seed 001)"),
         "D": ParameterSpec(1.0, "-", (1e-3, 1e3), "positive", doc="rate divisor (yield scale)"),
-        "A": ParameterSpec(1.0, "-", (0.0, 1e6), "real", doc="hysteretic gain"),
+        "A": ParameterSpec(1.0, "-", (0.0, 1e6), "nonnegative", doc="hysteretic gain"),
         "beta": ParameterSpec(0.5, "1/x^n", (-1e6, 1e6), "real", doc="shape parameter (z ~ x; |v| term)"),
         "gamma": ParameterSpec(0.5, "1/x^n", (-1e6, 1e6), "real", doc="shape parameter (z ~ x; v term)"),
         "n": ParameterSpec(1.0, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),

@@ -27,7 +27,7 @@ class BoucWenNormalised(Effect):
         "omega": ParameterSpec(1.0, "1/t", (1e-6, 1e3), "positive", doc="pseudo-natural frequency"),
         "xi": ParameterSpec(0.0, "F*t/x", (-1e4, 1e4), "real", doc="viscous damping ratio (as printed)"),
         "alpha": ParameterSpec(0.5, "F/x", (-1e5, 1e5), "real", doc="elastic/hysteretic split (as printed)"),
-        "A": ParameterSpec(1.0, "-", (0.0, 1e3), "real", doc="hysteretic gain"),
+        "A": ParameterSpec(1.0, "-", (0.0, 1e3), "nonnegative", doc="hysteretic gain"),
         "beta": ParameterSpec(0.5, "1/x^n", (-1e3, 1e3), "real", doc="shape parameter (z ~ x; v term)"),
         "gamma": ParameterSpec(0.5, "1/x^n", (-1e3, 1e3), "real", doc="shape parameter (z ~ x; |v| term)"),
         "n": ParameterSpec(1.48, "-", (0.5, 10.0), "bounded", doc="sharpness exponent"),

@@ -309,6 +309,11 @@ def build_function(value, spec: ParameterSpec | None = None) -> ParameterFunctio
             raise ValueError("a parameter without a value needs a spec with a default")
         value = spec.default
     if isinstance(value, (int, float)):
+        if spec is not None and spec.constraint in ("positive", "nonnegative") and not bool(
+                spec.admits(torch.tensor(float(value)))):  # (an effect names itself first: Effect._check_value)
+            need = "> 0" if spec.constraint == "positive" else ">= 0"
+            raise ValueError(f"parameter '{spec.doc or 'unnamed'}' needs a value {need}, got {value:g}: give one "
+                             f"{need} in the model config")
         return Constant(float(value), spec)
     if hasattr(value, "items"):
         kwargs = dict(value.items())
