@@ -464,55 +464,6 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
 
 
-def _swap_case():
-    """F = x + 0.8x³ + 0.2v + 0.4 arctan sign with a hardening Bouc–Wen (γ < 0) playing the cubic spring: its
-    special cases (Dahl) cannot replace it, the finalist it beat when it was added (the cubic spring) can."""
-    from hybridhyst.discover.fitting import polish
-    from hybridhyst.discover.validation import rmse_on
-    from hybridhyst.physics.effects import BoucWenHysteresis, Coulomb, LinearStiffness, Viscous
-    from hybridhyst.physics.models import Constitutive
-
-    rng = np.random.default_rng(0)
-    records = []
-    for amp in (0.5, 1.0):
-        t = np.arange(0, 2.0, 1 / 100)
-        x, v = -amp * np.cos(2 * np.pi * t), 2 * np.pi * amp * np.sin(2 * np.pi * t)
-        y = x + 0.8 * x**3 + 0.2 * v + 0.4 * (2 / np.pi) * np.arctan(v / 0.01) + 0.01 * rng.standard_normal(len(t))
-        records.append(Record(f"a{amp}", t, x, y, conditions={"amplitude_in": amp}))
-    model = Constitutive({"spring": LinearStiffness(k=1.0), "viscous": Viscous(c=0.2),
-                          "coulomb": Coulomb(Fc=0.4, v_s=0.01, fixed=["v_s"]),
-                          "bouc_wen": BoucWenHysteresis(alpha=0.0, k=0.3, k1=0.0, D=1.0, A=1.0, beta=0.0, gamma=-0.3,
-                                                        n=2.0, fixed=["alpha", "k1", "D", "A"])}).double()
-    sim = {"backend": "fast", "method": "rk4", "substeps": 1}
-    fit = polish(model, records, sim, 25, 10.0)
-    n = sum(len(r) for r in records)
-    return fit, records, sim, n, information_criterion(fit.sse, n, fit.k, "bic"), rmse_on(fit.model, records, sim)
-
-
-def test_a_swap_for_a_runner_up_is_recorded_and_reported_as_a_swap_not_a_special_case(float64):
-    """Bouc–Wen is not among the cubic spring's special cases, nor the cubic spring among Bouc–Wen's: the loop's
-    final pass swapped it for a close runner-up. The change records why (``replacement``) and the report says
-    "swapped for", never "replaced by its special case" (before: "lugre replaced by its special case bouc_wen")."""
-    from hybridhyst.discover.report import change_sentence
-    from hybridhyst.discover.selection import simplify
-    from hybridhyst.discover.validation import rmse_on
-
-    fit, records, sim, n, ic, val = _swap_case()
-    opts = {"lm_steps": 25, "box_factor": 10.0, "margin": 0.02, "criterion": "bic"}
-    _, _, _, changes = simplify(fit, records, sim, Scales.of(records), n, opts, ic, val,
-                                lambda m, s: rmse_on(m, records, s), rivals={"bouc_wen": ["cubic_stiffness"]})
-    assert [(c["effect"], c["by"], c["replacement"]) for c in changes] == [("bouc_wen", ["cubic_stiffness"],
-                                                                           "rival_swap")]
-    text = change_sentence({**changes[0], "after_step": 2}, "validation", "kip")
-    assert "**bouc_wen** swapped for cubic_stiffness" in text and "special case cubic" not in text, text
-    special = {"effect": "stribeck", "by": ["coulomb"], "replacement": "special_case", "after_step": 1,
-               "val_rmse_before": 0.5, "val_rmse_after": 0.49}
-    assert "**stribeck** replaced by its special case coulomb after step 1" in change_sentence(special, "validation",
-                                                                                              "kip")
-    removed = {**special, "by": [], "replacement": None}
-    assert "removed: its contribution vanished" in change_sentence(removed, "validation", "kip")
-
-
 def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_discovery_json(float64, tmp_path):
     """A test record the models cannot be simulated on (its sample interval far beyond the oscillator's explicit
     stability limit) is named with the sample it diverged from, in report.md and discovery.json, never dropped

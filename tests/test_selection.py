@@ -110,6 +110,19 @@ def test_an_added_effect_is_swapped_for_a_finalist_it_beat_only_when_the_loop_na
     assert changes == [] and "bouc_wen" in kept.model.effects
     swapped, _, _, changes = run({"bouc_wen": ["cubic_stiffness"]})
     assert [(c["effect"], c["kind"], c["by"]) for c in changes] == [("bouc_wen", "replaced", ["cubic_stiffness"])]
+    # Bouc–Wen is not among the cubic spring's special cases, nor the other way round: a swap for a runner-up,
+    # recorded and reported so (before: "lugre replaced by its special case bouc_wen")
+    from hybridhyst.discover.report import change_sentence
+
+    assert changes[0]["replacement"] == "rival_swap"
+    text = change_sentence({**changes[0], "after_step": 2}, "validation", "kip")
+    assert "**bouc_wen** swapped for cubic_stiffness" in text and "special case cubic" not in text, text
+    special = {"effect": "stribeck", "by": ["coulomb"], "replacement": "special_case", "after_step": 1,
+               "val_rmse_before": 0.5, "val_rmse_after": 0.49}
+    assert "**stribeck** replaced by its special case coulomb after step 1" in change_sentence(special, "validation",
+                                                                                              "kip")
+    removed = {**special, "by": [], "replacement": None}
+    assert "removed: its contribution vanished" in change_sentence(removed, "validation", "kip")
     (cubic,) = [e for e in swapped.model.effects.values() if e.name == "cubic_stiffness"]
     assert math.isclose(float(cubic.params["k3"].value.detach()), 0.8, rel_tol=0.05)
     assert "bouc_wen" not in {e.name for e in swapped.model.effects.values()}

@@ -46,6 +46,7 @@ def _compose(overrides):
 
 
 def _train(tmp: Path, name: str, *overrides) -> tuple[dict, Path]:
+    """A smoke training run (2 epochs unless ``overrides`` say otherwise) into ``tmp/name``."""
     cfg = _compose([*SMOKE, "trainer.max_epochs=2", *overrides])
     OmegaConf.update(cfg, "run_dir", str(tmp / name), force_add=True)
     return train.run(cfg), tmp / name
@@ -75,10 +76,8 @@ def test_code(case, request, tmp_path):
     if case == "checkpoint_with_code":
         ckpt = tmp_path / "evil.ckpt"
         torch.save({"state_dict": {}, "x": Plant(pwned)}, ckpt)
-        cfg = _compose([*SMOKE, "trainer.max_epochs=3", f"ckpt_path={ckpt}"])
-        OmegaConf.update(cfg, "run_dir", str(tmp_path / "run"), force_add=True)
         with pytest.raises(ValueError, match="not loaded"):
-            train.run(cfg)
+            _train(tmp_path, "run", f"ckpt_path={ckpt}")
     elif case == "copied_run_best_path_elsewhere":
         # a copied run directory, resumed untouched: its last.ckpt names the original's best.ckpt, which now holds
         # code; the copy's own best.ckpt is read instead
@@ -120,10 +119,8 @@ def test_code(case, request, tmp_path):
         run = tmp_path / "shared_run"
         shutil.copytree(finished, run)
         torch.save({"c": Plant(pwned)}, run / "model.pt")
-        cfg = _compose([*SMOKE, "trainer.max_epochs=1", f"nominal_state={run}"])
-        OmegaConf.update(cfg, "run_dir", str(tmp_path / "run"), force_add=True)
         with pytest.raises(ValueError, match="not loaded"):
-            train.run(cfg)
+            _train(tmp_path, "run", f"nominal_state={run}")
     elif case == "discovered_model_of_unfinished_run":
         # a discovery killed while writing: model.pt and model/discovered.yaml, no discovery.json, no complete.json
         run = tmp_path / "killed_discovery"
