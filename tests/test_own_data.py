@@ -89,7 +89,7 @@ def test_fit_runs_and_holds_out_two_pressures(tmp_path):
 
     summary = fit.run(_compose("fit", tmp_path, "progress=false", "fit.steps=3", "fit.lbfgs_steps=2"))
     assert summary["split"] == {"train": TRAINING, "held_out": ["p0.05", "p0.09"]}
-    assert summary["units"] == {"x": "deg", "y": "Nm"} and 0 < summary["rmse"]["held_out"] < 50
+    assert summary["units"] == {"x": "deg", "y": "Nm", "t": "s"} and 0 < summary["rmse"]["held_out"] < 50
     assert summary["conditions"]["p0.05"] == {"pressure_mpa": 0.05}
     assert summary["reference"] is None and (tmp_path / "report.md").exists()
     # loop.png draws every held-out record, the worst first: a miss is never hidden behind a good fit
@@ -108,7 +108,7 @@ def test_records_without_units_are_taken_in_the_models_and_the_app_says_so(tmp_p
     out = capsys.readouterr().out
     assert "the records declare no units for input and response (data.units)" in out
     assert "taken to be the model 'vpptd_algebraic''s (input in deg, response in Nm)" in out
-    assert summary["units"] == {"x": "deg", "y": "Nm"} and "Nm, held-out" in out
+    assert summary["units"] == {"x": "deg", "y": "Nm", "t": "s"} and "Nm, held-out" in out
 
 
 def test_discover_runs_and_prints_a_summary(tmp_path, capsys):
