@@ -77,12 +77,14 @@ def write_json(path: Path | str, obj) -> Path:
 
 
 def not_weights(path: Path | str, exc: Exception) -> ValueError:
-    """The error for a file that ``torch.load(weights_only=True)`` refused: it holds objects other than tensors
-    and plain values, which unpickling would have to run as code."""
-    detail = " ".join(str(exc).split())[:200]
-    return ValueError(f"{path} holds objects other than tensors, numbers and strings, which loading would have to run "
-                      f"as code: not loaded (a file a run reads is data, never code); give a checkpoint or model.pt "
-                      f"written by hybridhyst ({detail})")
+    """The error for a file that ``torch.load(weights_only=True)`` refused: not a torch file at all (empty,
+    truncated, another format), or one holding objects other than tensors and plain values, which unpickling
+    would have to run as code."""
+    what = ("holds objects other than tensors, numbers and strings, which loading would have to run as code"
+            if "Unsupported global" in str(exc) else
+            "is not a torch file hybridhyst can read (empty, truncated or another format)")
+    return ValueError(f"{path} {what}: not loaded (a file a run reads is data, never code); give a checkpoint or "
+                      "model.pt written by hybridhyst")
 
 
 def load_weights(path: Path | str):
@@ -92,5 +94,5 @@ def load_weights(path: Path | str):
 
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
-    except pickle.UnpicklingError as exc:
+    except (pickle.UnpicklingError, EOFError, RuntimeError) as exc:
         raise not_weights(path, exc) from None

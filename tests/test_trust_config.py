@@ -245,3 +245,17 @@ def test_cli_refuses_a_plus_key_it_would_ignore_and_text_for_a_number(tmp_path):
 def test_cli_names_the_whole_override_the_shell_cut_short(tmp_path):
     message = _cli("simulate", tmp_path, "data.units={t:", "s,", "x:", "deg,", "y:", "Nm}")
     assert "quote the whole override: 'data.units={t: s, x: deg, y: Nm}'" in message, message
+
+
+@pytest.mark.parametrize("key,value,expected", [("lr", -0.1, "fit.lr must be > 0"), ("lr", 0, "fit.lr must be > 0"),
+                                                ("steps", 5.5, "fit.steps must be a whole number"),
+                                                ("steps", -5, "fit.steps must be >= 0")])
+def test_fit_refuses_descent_settings_that_cannot_descend(key, value, expected):
+    """A negative rate climbed the loss and ended "ok"; 5.5 steps was kept as 5.5 in config.yaml."""
+    from omegaconf import OmegaConf
+
+    from hybridhyst.cli.fit import _descent_settings
+
+    fit = OmegaConf.create({"steps": 100, "lr": 0.05, "lbfgs_steps": 0, key: value})
+    with pytest.raises(ValueError, match=expected):
+        _descent_settings(fit)

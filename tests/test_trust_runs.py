@@ -262,6 +262,10 @@ def test_concurrency(case, tmp_path):
             with pytest.raises(ValueError, match=f"in use by another run \\(process {holder.pid} on "):
                 _train(tmp_path, "run")
             assert not (run / "metrics.json").exists()
+            # on the command line it is refused before Hydra writes its record or log into the directory in use
+            out = _cli([sys.executable, "-m", "hybridhyst.cli.train", *SMOKE, f"hydra.run.dir={run}"], cwd=tmp_path)
+            assert out.returncode == 2 and "in use by another run" in out.stderr, out.stderr[-2000:]
+            assert not (run / ".hydra").exists() and not (run / "train.log").exists()
         finally:
             holder.kill()
             holder.wait()
@@ -298,3 +302,20 @@ def test_report_names_runs_that_kept_their_start(tmp_path):
     kept = report.split("## Runs that kept their starting weights", 1)[1].split("##", 1)[0]
     assert "**kept**: all 3 successful run(s) kept their starting weights" in kept
     assert "**trained**" not in kept
+
+
+def test_skip_finished_keeps_a_run_launched_without_the_flag(tmp_path):
+    """A sweep launched without +skip_finished=true and re-launched with it keeps the jobs that finished (the flag
+    itself is no part of the run's config)."""
+    first, run = _train(tmp_path, "run")
+    again, _ = _train(tmp_path, "run", "+skip_finished=true")
+    assert again == json.loads((run / "metrics.json").read_text()) and again["wall_s"] == first["wall_s"]
+
+
+@pytest.mark.parametrize("content", [b"", b"\x00garbage\xff" * 10], ids=["empty", "random_bytes"])
+def test_a_file_that_is_no_torch_file_is_one_line(content, tmp_path):
+    from hybridhyst.files import load_weights
+
+    (tmp_path / "model.pt").write_bytes(content)
+    with pytest.raises(ValueError, match="is not a torch file hybridhyst can read"):
+        load_weights(tmp_path / "model.pt")

@@ -28,6 +28,7 @@ from omegaconf import DictConfig, OmegaConf
 from ..files import atomic_write, jsonable, write_json  # noqa: F401 (the apps' run-directory I/O)
 from ..runs import (  # noqa: F401 (the apps' run directories: one run each, complete or absent)
     RunInterrupted,
+    claim,
     interruptible,
     mark_complete,
     prepare_run_dir,
@@ -297,6 +298,18 @@ def interrupted_note(cfg) -> str:
     return f"no finished results in {where} (no complete.json)" if where else "nothing was written"
 
 
+def _claim_named_run_dir(argv: list[str]) -> None:
+    """Claim the run directory a single run names on its command line (``hydra.run.dir=...``) before Hydra writes
+    its ``.hydra/`` record and log there: a second run into a directory in use is refused before it touches any
+    of the first run's files (``prepare_run_dir`` claims it again, as the same process, inside the run)."""
+    if any(a in ("-m", "--multirun") for a in argv):
+        return
+    for arg in argv:
+        found = re.match(r"^\+{0,2}hydra\.run\.dir=(.+)$", arg)
+        if found and "${" not in found.group(1):
+            claim(found.group(1).strip("'\""))
+
+
 def _sweep_note(cfg) -> str:
     """The sentence an interrupted multirun job adds: the sweep stops, and how to go on."""
     if not _multirun():
@@ -367,6 +380,7 @@ def hydra_entry(hydra_main: Callable[[], None]) -> None:
 
     try:
         check_search_path()
+        _claim_named_run_dir(sys.argv[1:])
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         sys.exit(2)

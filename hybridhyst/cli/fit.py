@@ -23,6 +23,7 @@ from ..data.decimate import decimate, decimate_all, decimation_factors
 from ..identify.gradient import fit_gradient
 from ..simulate import simulate_resolved
 from ..simulate.api import MAX_SUBSTEPS_SCORED
+from ..training.config import config_number
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -156,14 +157,30 @@ def _per_cycle(records, factors: dict, frequency) -> dict:
     return out
 
 
+def _descent_settings(fit) -> tuple[int, float, int]:
+    """``fit.steps`` and ``fit.lbfgs_steps`` (whole numbers >= 0) and ``fit.lr`` (> 0: a negative rate climbs the
+    loss and still ends "ok"), each named with its fix when it is not."""
+    steps = config_number(fit, "steps", "fit.steps", whole=True)
+    lbfgs_steps = config_number(fit, "lbfgs_steps", "fit.lbfgs_steps", whole=True)
+    lr = config_number(fit, "lr", "fit.lr")
+    for key, value in (("fit.steps", steps), ("fit.lbfgs_steps", lbfgs_steps)):
+        if value < 0:
+            raise ValueError(f"config key {key} must be >= 0, got {value}: give {key}=<steps> (0: none)")
+    if not lr > 0:
+        raise ValueError(f"config key fit.lr must be > 0, got {lr:g}: a rate <= 0 does not descend (a negative one "
+                         "climbs the loss); give fit.lr=<rate>, e.g. fit.lr=0.05")
+    return steps, lr, lbfgs_steps
+
+
 def _fit(model, train, cfg) -> tuple:
     fit = cfg.fit
+    steps, lr, lbfgs_steps = _descent_settings(fit)
     factors = decimation_factors(train, fit.samples_per_cycle, fit.downsample, fit.frequency_condition,
                                  "fit.frequency_condition")
     start = _start(model, decimate_all(train, factors, "the fit's start (fit.start=identify)"), cfg)
     result = fit_gradient(
-        model, list(train), steps=int(fit.steps), lr=float(fit.lr), downsample=factors, loss=fit.loss,
-        lbfgs_steps=int(fit.lbfgs_steps), progress=bool(cfg.progress), method=fit.method,
+        model, list(train), steps=steps, lr=lr, downsample=factors, loss=fit.loss,
+        lbfgs_steps=lbfgs_steps, progress=bool(cfg.progress), method=fit.method,
         substeps=int(fit.substeps), backend=str(fit.backend), resolve=bool(fit.resolve),
         max_substeps=int(fit.max_substeps),
     )

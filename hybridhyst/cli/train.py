@@ -228,7 +228,13 @@ def finished_run(cfg: DictConfig) -> dict | None:
         return None
     if not isinstance(metrics, dict) or metrics.get("status") != "ok" or not is_complete(run_dir):
         return None
-    return metrics if earlier == OmegaConf.to_container(cfg, resolve=True) else None
+    now = OmegaConf.to_container(cfg, resolve=True)
+    # the flag itself is no part of the run: a sweep launched without it is re-launched with it
+    return metrics if _without(earlier, "skip_finished") == _without(now, "skip_finished") else None
+
+
+def _without(config: dict, key: str) -> dict:
+    return {k: v for k, v in config.items() if k != key} if isinstance(config, dict) else config
 
 
 def _clear(run_dir: Path) -> None:

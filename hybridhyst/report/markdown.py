@@ -96,8 +96,9 @@ def _kept_start_lines(summary: pd.DataFrame) -> list[str]:
         if r.n_kept_start:
             every = "all" if r.n_kept_start == r.n_seeds else f"{r.n_kept_start} of"
             lines.append(f"- **{r.configuration}**: {every} {r.n_seeds} successful run(s) kept their starting "
-                         "weights (the trained model did worse on validation than the one it started from): these "
-                         "errors are the starting model's, not a trained one's.")
+                         "weights (the trained model did worse than the one it started from on the validation "
+                         "records, or on the training records where there are none): these errors are the "
+                         "starting model's, not a trained one's.")
     return ["## Runs that kept their starting weights", "", *lines, ""]
 
 

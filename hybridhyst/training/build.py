@@ -87,7 +87,12 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
         nominal = instantiate(cfg.model, _convert_="all").double()
         check_model_data(nominal, dm.split, "model")
         if cfg.get("nominal_state"):
-            nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
+            try:
+                nominal.load_state_dict(load_nominal_state(cfg.nominal_state))
+            except RuntimeError as e:  # keys or shapes of another model
+                raise ValueError(f"nominal_state={cfg.nominal_state} does not fit the model "
+                                 f"{cfg.model.get('name') or ''!s}: {' '.join(str(e).split())[:300]}; give the run "
+                                 "directory of this model, or the model config that run wrote (model=...)") from None
         identified, start = None, nominal_start(cfg)
         if start not in ("nominal_state", "init_noise", "identify", "model"):
             raise ValueError(f"unknown nominal_init.method {start!r}; choose 'identify' or 'none'")
