@@ -495,7 +495,7 @@ def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_di
     assert (after.record, after.split) == ("coarse", "test") and 0 < after.sample < 40
     write_discovery(result, tmp_path, unit="m")
     report = (tmp_path / "report.md").read_text()
-    assert f"**The discovered model's simulation diverged** on 1 record: coarse (test) from sample {after.sample}" \
+    assert f"**The discovered model's simulation diverged** on 1 record: 'coarse' (test) from sample {after.sample}" \
         in report
     assert json.loads((tmp_path / "discovery.json").read_text())["diverged"]["after"][0]["record"] == "coarse"
     with pytest.raises(DivergenceError, match=r"diverged on 1 of 3 records: 'coarse' \(test\) from sample"):

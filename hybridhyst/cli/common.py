@@ -84,6 +84,29 @@ def identify_options(block, where: str, reserved: tuple[str, ...] = (), /, **set
     return check_kwargs(opts, identify, where, reserved=("model", "records", "seed", "progress", *reserved))
 
 
+def start_options(simulation: dict, extra, where: str) -> dict:
+    """``identify()`` options of a search that starts an app's fit (``identify_start``): conf/identify.yaml's
+    ``identify:`` block, with the app's ``simulation`` settings (``ode_method``, ``substeps``, ``backend``: the grid
+    the app then simulates on, no step doubling of the search's own), no Fisher analysis, then the app's ``extra``
+    block (``where``: its key)."""
+    block = OmegaConf.load(os.path.join(CONF_DIR, "identify.yaml"))["identify"]
+    return identify_options(block, where, **{"fisher": False, "resolve": False, **simulation,
+                                             **(to_plain(extra) or {})})
+
+
+def identify_start(model, records, opts: dict, where: str, fallback: str, *, seed: int, progress: bool):
+    """Fit ``model`` in place by ``hybridhyst.identify`` with ``opts`` (``start_options``): the start of
+    ``hybridhyst-fit`` (``fit.start=identify``) and of ``hybridhyst-train``'s nominal (``nominal_init``). A failed
+    search is a ``ValueError`` naming ``where`` (the options' key) and ``fallback`` (how to start otherwise)."""
+    from ..identify import identify
+
+    try:
+        return identify(model, records, seed=seed, progress=progress, **opts)
+    except ValueError as e:
+        raise ValueError(f"{where.split('.')[0]}: the global search on the training records failed: {e} "
+                         f"({where}={{bounds: ...}} sets its search box; {fallback})") from e
+
+
 def write_model(run_dir, model, config_name: str, what: str) -> str:
     """Write a fitted model where every app can use it again: ``model.pt`` (its state dict, for
     ``hybridhyst-train nominal_state=``) and ``model/<config_name>.yaml`` (its config with the fitted values,

@@ -31,7 +31,7 @@ from .common import (
     check_model_data,
     guarded,
     hydra_entry,
-    identify_options,
+    identify_start,
     instantiate,
     load_records,
     mark_complete,
@@ -39,6 +39,7 @@ from .common import (
     resolution_note,
     say,
     split_options,
+    start_options,
     to_plain,
     torch_settings,
     write_json,
@@ -126,21 +127,12 @@ def _start(model, data, cfg) -> dict:
                          "model config's values)")
     if start == "model":
         return {"start": "model"}
-    from ..identify import identify
-
-    block = OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"]
     # at the fit's starting sub-steps, without step doubling of its own: the descent resolves them from there (a
     # search at each finer step would cost three times as much on the BRFD loops, for a start)
-    settings = {"fisher": False, "ode_method": fit.method, "substeps": int(fit.substeps), "backend": fit.backend,
-                "resolve": False}
-    settings.update(to_plain(fit.get("identify")) or {})
-    opts = identify_options(block, "fit.identify", **settings)
-    try:
-        result = identify(model, data, seed=int(cfg.seed), progress=bool(cfg.progress), **opts)
-    except ValueError as e:
-        raise ValueError(f"fit.start=identify: the global search on the training records failed: {e} "
-                         "(fit.identify={bounds: ...} sets its search box; fit.start=model starts from the model "
-                         "config's values)") from e
+    simulation = {"ode_method": fit.method, "substeps": int(fit.substeps), "backend": fit.backend}
+    opts = start_options(simulation, fit.get("identify"), "fit.identify")
+    result = identify_start(model, data, opts, "fit.identify", "fit.start=model starts from the model config's "
+                            "values", seed=int(cfg.seed), progress=bool(cfg.progress))
     return {"start": "identify", "search": result.search, "refine": str(opts["refine"]), "rmse": result.rmse,
             "evaluations": result.evaluations, "wall_s": result.wall_s, "substeps": result.substeps,
             "at_bounds": dict(result.at_bounds)}

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..analysis.finite import Diverged, divergence_message
 from ..identify.gradient import TOLERANCE
 from ..report.figures import Loop, write_loops
 from .common import atomic_write, resolution_note
@@ -96,12 +97,10 @@ def diverged_sentence(summary: dict) -> str:
     gone = summary.get("diverged") or []
     if not gone:
         return ""
-    t_unit = summary["units"].get("t") or "s"
-    named = ", ".join(f"{d['record']} ({d['split'].replace('_', ' ')}) from sample {d['sample']}"
-                      + (f" (t = {d['t']:.4g} {t_unit})" if d.get("t") is not None else "") for d in gone)
-    return (f"The fitted model's simulation diverged on {len(gone)} of {len(summary['per_record'])} records: {named}. "
-            "The RMSE of a diverged record, and a pooled RMSE that includes one, is not a value (the results are "
-            "written anyway: keep_going=true).")
+    message = divergence_message([Diverged(**d) for d in gone], len(summary["per_record"]),
+                                 what="The fitted model's simulation", time_unit=summary["units"].get("t") or "s")
+    return (f"{message}. The RMSE of a diverged record, and a pooled RMSE that includes one, is not a value (the "
+            "results are written anyway: keep_going=true).")
 
 
 def convergence_note(fit: dict) -> str:

@@ -74,8 +74,7 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     if kind == "free_vibration" and "x" in frame:
         from ..analysis import free_vibration_frequency
 
-        finite = bool(np.isfinite(y).all())  # a diverged run has no frequency (null, and run() names the sample)
-        info["frequency_hz"] = free_vibration_frequency(frame["x"].to_numpy(), float(inp.dt)) if finite else None
+        info["frequency_hz"] = free_vibration_frequency(frame["x"].to_numpy(), float(inp.dt))
     return [frame], {kind: info}
 
 
@@ -96,8 +95,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)
-        finite = bool(np.isfinite(y[:, 0]).all())  # a diverged record has no RMSE (run() names the sample)
-        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y) if finite else None}
+        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y)}
     return frames, info
 
 

@@ -48,7 +48,6 @@ from ..runs import RunInterrupted, claim, inside, is_complete, is_run_dir
 from ..training import predict_split, predictions_frame, split_metrics
 from ..training.build import build_datamodule, build_trainer, lbfgs_settings, nominal_start, run_info
 from ..training.build import build_module as _build_module
-from ..training.config import to_plain
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -56,12 +55,13 @@ from .common import (
     edge_line,
     guarded,
     hydra_entry,
-    identify_options,
+    identify_start,
     jsonable,
     mark_complete,
     prepare_run_dir,
     run_dir_path,
     say,
+    start_options,
     torch_settings,
     write_json,
 )
@@ -84,30 +84,23 @@ def _identify_settings(cfg: DictConfig) -> dict:
     """identify() keyword arguments: conf/identify.yaml's ``identify:`` block (one source of the defaults),
     the training simulation settings (its sub-steps, not ones step doubling would choose: the nominal is
     identified as training simulates it), no Fisher analysis, then ``nominal_init.settings``."""
-    block = OmegaConf.load(Path(CONF_DIR) / "identify.yaml")["identify"]
-    settings = {"fisher": False, "ode_method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps),
-                "backend": cfg.simulation.backend, "resolve": False}
-    settings.update(to_plain((cfg.get("nominal_init") or {}).get("settings")) or {})
-    return identify_options(block, "nominal_init.settings", **settings)
+    simulation = {"ode_method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps),
+                  "backend": cfg.simulation.backend}
+    return start_options(simulation, (cfg.get("nominal_init") or {}).get("settings"), "nominal_init.settings")
 
 
 def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
     """Fit ``nominal`` in place to the training records (``RecordDataModule.training_records``) with
     ``hybridhyst.identify.identify`` (``_identify_settings``); returns a summary for metrics.json."""
-    from ..identify import identify
-
     opts = _identify_settings(cfg)
     records = dm.training_records()
     progress = bool((cfg.get("nominal_init") or {}).get("progress", True))
     if progress:
         print(f"identifying the nominal on {len(records)} training records "
               f"({opts['method']} + {opts['refine']}) ...", flush=True)
-    try:
-        result = identify(nominal, records, seed=int(cfg.seed), progress=progress, **opts)
-    except ValueError as e:
-        raise ValueError(f"nominal_init: identifying the nominal on the training records failed: {e} "
-                         "(nominal_init.settings={bounds: ...} sets the search box; nominal_init.method=none "
-                         "starts from the model config's values)") from e
+    result = identify_start(nominal, records, opts, "nominal_init.settings",
+                            "nominal_init.method=none starts from the model config's values", seed=int(cfg.seed),
+                            progress=progress)
     return {"rmse": result.rmse, "wall_s": result.wall_s, "records": len(records), "search": result.search,
             "refine": str(opts["refine"]), "evaluations": result.evaluations, "x": result.x,
             "at_bounds": dict(result.at_bounds)}

@@ -21,16 +21,24 @@ __all__ = ["change_sentence", "check_discovery", "diverged_records", "write_disc
 STAGES = {"after": "discovered model", "before": "nominal"}  # the models whose predictions a discovery keeps
 
 
+def _simulated(result: DiscoveryResult, stage: str) -> tuple[list, list, list, list]:
+    """``stage``'s predictions of every record it simulated, with the records' names, times and splits."""
+    names, preds, times, splits = [], [], [], []
+    for split, records in result.splits.items():
+        for r, p in zip(records, (result.predictions.get(stage) or {}).get(split) or []):
+            names.append(r.name)
+            preds.append(p)
+            times.append(r.t)
+            splits.append(split)
+    return preds, names, times, splits
+
+
 def diverged_records(result: DiscoveryResult, stage: str = "after") -> list[Diverged]:
     """The records on which ``stage``'s model ("after": the discovered one, "before": the nominal it is compared
     with) simulated non-finite values, each from its first non-finite sample, split by split ("train", "val",
     "test")."""
-    out: list[Diverged] = []
-    for split, records in result.splits.items():
-        preds = list((result.predictions.get(stage) or {}).get(split) or [])
-        kept = list(records)[: len(preds)]
-        out += nonfinite_records(preds, [r.name for r in kept], [r.t for r in kept], split)
-    return out
+    preds, names, times, splits = _simulated(result, stage)
+    return nonfinite_records(preds, names, times, splits)
 
 
 def _diverged_report(result: DiscoveryResult) -> dict:
@@ -44,13 +52,7 @@ def check_discovery(result: DiscoveryResult, *, keep_going: bool = False, time_u
     naming it and the sample it diverged from (exit code 2 in the app), or with ``keep_going`` a warning through
     ``warn``. The nominal's own divergences ("before") are a finding of the comparison, not a failure of the run:
     ``report.md`` and ``discovery.json``'s ``diverged`` name them either way."""
-    names, preds, times, splits = [], [], [], []
-    for split, records in result.splits.items():
-        for r, p in zip(records, (result.predictions.get("after") or {}).get(split) or []):
-            names.append(r.name)
-            preds.append(p)
-            times.append(r.t)
-            splits.append(split)
+    preds, names, times, splits = _simulated(result, "after")
     result.report["diverged"] = _diverged_report(result)
     return check_finite(preds, names, times, splits=splits, keep_going=keep_going, time_unit=time_unit,
                         what="the discovered model's simulation", warn=warn,
@@ -248,8 +250,7 @@ def _diverged_lines(diverged: dict) -> list[str]:
     for stage, what in STAGES.items():
         gone = diverged.get(stage) or []
         if gone:
-            named = ", ".join(f"{d['record']} ({d['split']}) from sample {d['sample']}"
-                              + (f" (t = {d['t']:.4g} s)" if d.get("t") is not None else "") for d in gone)
+            named = ", ".join(Diverged(**d).describe() for d in gone)
             lines += [f"**The {what}'s simulation diverged** on {len(gone)} record{'s' if len(gone) > 1 else ''}: "
                       f"{named}. Its RMSE on a split holding one of them is not a value (—).", ""]
     return lines
