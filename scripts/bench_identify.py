@@ -221,7 +221,7 @@ def linear_bounds() -> dict:
 
 
 def warm_up(model, rec, conditions=None) -> float:
-    """First fast call of a model (numba compile or disk-cache load): timed separately, excluded elsewhere."""
+    """First fast call of a model (C build or disk-cache load): timed separately, excluded elsewhere."""
     from hybridhyst.simulate import simulate
 
     t0 = time.perf_counter()

@@ -20,7 +20,7 @@ thins them).
 
     PYTHONPATH=. python scripts/bench_jacobian.py --json bench_jacobian.json --write-readme
 
-Jacobian timings are wall-clock medians of 5 calls after a first call of each kind (numba compile or cache load,
+Jacobian timings are wall-clock medians of 5 calls after a first call of each kind (C build or cache load,
 excluded); the LM runs are timed once each. A script, not a timed test: numbers depend on the machine load.
 """
 

@@ -10,7 +10,7 @@ random force; the network is the in-the-loop hybrid's default (2x32 tanh, one la
     PYTHONPATH=. python scripts/bench_neural.py --json /tmp/bench_neural.json --write-readme
 
 ``--quick`` runs a smoke version (batch 1 and 16, 200 steps). Timings are wall-clock medians; the first call
-of each configuration (numba compile or disk-cache load, CUDA warm-up) is excluded.
+of each configuration (C build or disk-cache load, CUDA warm-up) is excluded.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ reference at batch 1 and 16, length 1e3, for comparison).
     PYTHONPATH=. python scripts/bench_simulate.py --fresh-cache --json bench_simulate.json --write-readme
 
 ``--quick`` runs a small grid (a smoke run: a 400-sample loop, one reference repeat, length 500 only). Timings are wall
-clock medians; the first fast call (numba compile, or load from the disk cache) is excluded from every
+clock medians; the first fast call (C build, or load from the disk cache) is excluded from every
 timing and reported separately. This is a script, not a timed test: numbers depend on the machine load.
 """
 
@@ -39,13 +39,17 @@ MIXTURE, PRESSURE = "1:3", 0.05
 
 
 def machine_info() -> dict:
-    import numba
+    import subprocess
 
+    from hybridhyst.simulate.fast.codegen import _threads, compiler
+
+    cc = subprocess.run([compiler(), "--version"], capture_output=True, text=True).stdout.splitlines()[0]
+    gpu = torch.cuda.get_device_name(0) if torch.cuda.is_available() else "not measured (no GPU in this session)"
     return {
         "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-        "cpu_cores": os.cpu_count(), "torch": torch.__version__, "numba": numba.__version__,
+        "cpu_cores": os.cpu_count(), "torch": torch.__version__, "compiler": cc,
         "numpy": np.__version__, "python": platform.python_version(), "torch_threads": torch.get_num_threads(),
-        "numba_threads": int(numba.config.NUMBA_NUM_THREADS), "gpu": "not measured (no GPU in this session)",
+        "fast_threads": _threads(), "gpu": gpu,
         "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
     }
 
@@ -190,7 +194,7 @@ def _fmt_time(s: float) -> str:
 
 def machine_markdown(m: dict) -> str:
     return (f"Machine: {m['cpu_cores']} CPU cores ({m['processor']}, {m['platform']}); Python {m['python']}, "
-            f"torch {m['torch']} ({m['torch_threads']} threads), numba {m['numba']} ({m['numba_threads']} threads), "
+            f"torch {m['torch']} ({m['torch_threads']} threads), C compiler {m['compiler']} (loops on {m['fast_threads']} threads), "
             f"numpy {m['numpy']}. Load average (1, 5, 15 min) at start: {m.get('load_average_at_start')} "
             f"(other jobs shared the machine). GPU: {m['gpu']}.")
 
@@ -202,11 +206,11 @@ def ratio_markdown(g: dict) -> list[str]:
         "",
         "| path | time per gradient | repeats (median) | GPU |",
         "|---|---|---|---|",
-        f"| fast (numba, discrete adjoint) | {_fmt_time(g['fast_s'])} | {g['fast_repeats']} | not measured |",
+        f"| fast (generated C, discrete adjoint) | {_fmt_time(g['fast_s'])} | {g['fast_repeats']} | not measured |",
         f"| reference (eager PyTorch) | {_fmt_time(g['reference_s'])} | {g['reference_repeats']} | not measured |",
         f"| **ratio** | **{g['ratio']:.0f}×** (target ≥ 300×) | | |",
         "",
-        f"First fast call (numba compile or disk-cache load, excluded above): {g['first_fast_call_s']:.2f} s. "
+        f"First fast call (C build or disk-cache load, excluded above): {g['first_fast_call_s']:.2f} s. "
         f"Largest relative difference between the two gradients: {g['max_rel_grad_difference']:.1e}.",
     ]
 

@@ -317,7 +317,7 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
         (the coarse fit's basin is the integrator's error's) and the better of the two is kept (and checked
         again). A sharp loop on a coarse sample grid is otherwise fitted as the integrator's error shapes it.
     torch_threads : torch intra-op threads during the run (restored after; None leaves them). The compiled
-        simulator already runs rows in parallel (numba); torch threads competing with it made identification
+        simulator already runs rows in parallel (threads); torch threads competing with it made identification
         of the seed 001 loop about 5x slower on a 2-core machine.
 
     Raises

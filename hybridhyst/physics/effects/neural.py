@@ -43,7 +43,7 @@ class NeuralEffect(Effect):
     Units: no physical parameters; the weights are trained (``hybridhyst-train placement=dynamics``, or
     through the simulator by the discovery loop's leftover measure, ``discover.leftover=dynamics``) and are
     not coordinates of ``identify``'s search. Shapes: ``(batch,)`` per instant; state ``(batch,
-    latent_states)``. Both backends run it: on the compiled fast path the network is a generated numba
+    latent_states)``. Both backends run it: on the compiled fast path the network is a generated C
     kernel whose weights are coordinates of the exact discrete adjoint (``simulate.fast``), on the
     reference loop it is the torch module (in the weights' dtype; the compiled path computes in float64).
     The scales and condition statistics are constants of the generated code: changing them (a state dict)

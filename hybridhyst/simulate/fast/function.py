@@ -48,6 +48,11 @@ def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
     return torch.cat(cols, dim=1) if cols else like.new_zeros(B, 0)
 
 
+def _numpy(x: torch.Tensor) -> np.ndarray:
+    """A tensor as the contiguous float64 host array the compiled loops read."""
+    return np.ascontiguousarray(x.detach().to(device="cpu", dtype=torch.float64).numpy())
+
+
 def _tableau(method: str):
     if method not in TABLEAUX:
         raise ValueError(f"unknown fixed-step method {method!r}; choose one of {sorted(TABLEAUX)}")
@@ -62,10 +67,7 @@ class _FastSimulate(torch.autograd.Function):
     @staticmethod
     def forward(ctx, theta, U, s0, h, module, method, substeps, output_dim):
         c, A, bw = _tableau(method)
-        th = theta.detach().to(torch.float64).cpu().numpy()
-        Un = U.detach().to(torch.float64).cpu().numpy()
-        s0n = s0.detach().to(torch.float64).cpu().numpy()
-        hn = h.detach().to(torch.float64).cpu().numpy()
+        th, Un, s0n, hn = (_numpy(x) for x in (theta, U, s0, h))
         B, T = Un.shape[0], Un.shape[1]
         states = np.empty((B, T, s0n.shape[1]))
         y = np.empty((B, T, output_dim))
@@ -81,7 +83,7 @@ class _FastSimulate(torch.autograd.Function):
         Un, hn, th, states, c, A, bw, sub, module, y_shape = ctx.numpy
 
         def numpy(g, shape):
-            return np.zeros(shape) if g is None else np.ascontiguousarray(g.detach().to(torch.float64).cpu().numpy())
+            return np.zeros(shape) if g is None else _numpy(g)
 
         gth = np.zeros_like(th)
         gU = np.zeros_like(Un)
@@ -128,9 +130,7 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     B, T = U.shape[0], U.shape[1]
     c, A, bw = _tableau(method)
 
-    def numpy(x):
-        return x.detach().to(torch.float64).contiguous().numpy()
-
+    numpy = _numpy
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1)
     y = np.empty((B, T, model.output_dim))
     dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))

@@ -1,0 +1,277 @@
+/* The integration loops of every generated model (hybridhyst.simulate.fast.codegen pastes them after the
+   model's kernels ``bounds``, ``rhs``, ``rhs_jac``, ``out``, ``out_jac``, ``rhs_net_vjp``, ``out_net_vjp`` and its
+   sizes S, P, O, NB, HAS_BOUNDS, NETS). Arrays are row-major float64: U (B, T, 3) the input and its two rates,
+   h (B, T - 1) each row's sample intervals, th (B, NT) each row's P parameter values then the networks'
+   weights, s0 (B, S), states (B, T, S), y (B, T, O). The explicit Runge-Kutta tableau is c (nst), A (nst, nst),
+   bw (nst); ``sub`` sub-steps per sample interval, the input linearly interpolated inside it. The exported
+   functions run rows [b0, b1): the caller spreads rows over threads. */
+
+/* Y = st + hk * sum_l A[j, l] K[l] (the state at stage j). */
+static inline void stage_state(const double *st, const double *K, int j, double hk, const double *A, int nst,
+                               double *Y) {
+    for (int i = 0; i < S; i++) {
+        double acc = st[i];
+        for (int l = 0; l < j; l++) acc += hk * A[j * nst + l] * K[l * DIM(S) + i];
+        Y[i] = acc;
+    }
+}
+
+/* The input (u, du, ddu) a fraction fr into sample interval k (linear interpolation). */
+static inline void stage_input(const double *U, int k, double fr, double *in) {
+    for (int q = 0; q < 3; q++) in[q] = U[k * 3 + q] + (U[(k + 1) * 3 + q] - U[k * 3 + q]) * fr;
+}
+
+/* Advance st in place by sub-step m of interval k. */
+static inline void substep(int k, int m, double *st, double *K, double *Y, double hk, const double *U,
+                           const double *th, int nst, const double *c, const double *A, const double *bw, int sub,
+                           double *buf) {
+    double in[3];
+    for (int j = 0; j < nst; j++) {
+        stage_state(st, K, j, hk, A, nst, Y);
+        stage_input(U, k, (m + c[j]) / sub, in);
+        rhs(Y, in[0], in[1], in[2], th, K + j * DIM(S), buf);
+    }
+    for (int i = 0; i < S; i++) {
+        double acc = 0.0;
+        for (int j = 0; j < nst; j++) acc += bw[j] * K[j * DIM(S) + i];
+        st[i] += hk * acc;
+    }
+}
+
+/* Project the state onto its bounds; fl[i] = 1 / -1 where the upper / lower bound was taken, else 0. */
+static inline void project(double *st, const double *lo, const double *hi, double *fl) {
+    for (int i = 0; i < S; i++) {
+        if (st[i] > hi[i]) {
+            st[i] = hi[i];
+            fl[i] = 1.0;
+        } else if (st[i] < lo[i]) {
+            st[i] = lo[i];
+            fl[i] = -1.0;
+        } else {
+            fl[i] = 0.0;
+        }
+    }
+}
+
+static void forward_row(int T, const double *U, const double *h, const double *th, const double *s0, int nst,
+                        const double *c, const double *A, const double *bw, int sub, double *states, double *y) {
+    double K[nst * DIM(S)], Y[DIM(S)], st[DIM(S)], g[DIM(O)], buf[NB];
+    double lo[DIM(S)], hi[DIM(S)], fl[DIM(S)], dlo[DIM(S * P)], dhi[DIM(S * P)];
+    memset(K, 0, sizeof K);
+    for (int i = 0; i < S; i++) st[i] = s0[i];
+    if (HAS_BOUNDS) bounds(st, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    for (int i = 0; i < S; i++) states[i] = st[i];
+    for (int k = 0; k < T - 1; k++) {
+        double hk = h[k] / sub;
+        for (int m = 0; m < sub; m++) {
+            substep(k, m, st, K, Y, hk, U, th, nst, c, A, bw, sub, buf);
+            if (HAS_BOUNDS) project(st, lo, hi, fl);
+        }
+        for (int i = 0; i < S; i++) states[(k + 1) * S + i] = st[i];
+    }
+    for (int k = 0; k < T; k++) {
+        out(states + k * S, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, buf);
+        for (int o = 0; o < O; o++) y[k * O + o] = g[o];
+    }
+}
+
+/* Outputs y and their derivatives dy (T, O, P) w.r.t. every parameter (forward sensitivities: the exact
+   derivative of the same discrete map as forward_row), given the initial state's ds0 (S, P). Without networks
+   (their outputs are held in the Jacobian kernels). */
+static void tangent_row(int T, const double *U, const double *h, const double *th, const double *s0,
+                        const double *ds0, int nst, const double *c, const double *A, const double *bw, int sub,
+                        double *y, double *dy) {
+    const int s1 = DIM(S), p1 = DIM(P);
+    double K[nst * s1], dK[nst * s1 * p1], Y[s1], dY[s1 * p1];
+    double FS[s1 * s1], FT[s1 * p1], FI[s1 * 3];
+    double g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * 3], buf[NB];
+    double st[s1], sig[s1 * p1]; /* the state and d(state)/d(parameters) (S, P) */
+    double lo[s1], hi[s1], fl[s1], dlo[s1 * p1], dhi[s1 * p1], in[3];
+    memset(K, 0, sizeof K);
+    memset(dK, 0, sizeof dK);
+    for (int i = 0; i < S; i++) st[i] = s0[i];
+    for (int i = 0; i < S * P; i++) sig[i] = ds0[i];
+    if (HAS_BOUNDS) bounds(st, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    for (int k = 0; k < T; k++) {
+        out_jac(st, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, gs, gt, gi, buf);
+        for (int o = 0; o < O; o++) {
+            y[k * O + o] = g[o];
+            for (int p = 0; p < P; p++) {
+                double acc = gt[o * P + p];
+                for (int i = 0; i < S; i++) acc += gs[o * S + i] * sig[i * P + p];
+                dy[(k * O + o) * P + p] = acc;
+            }
+        }
+        if (k == T - 1) break;
+        double hk = h[k] / sub;
+        for (int m = 0; m < sub; m++) {
+            for (int j = 0; j < nst; j++) { /* stage j: Y_j = s + hk sum_l A_jl K_l, K_j = f(Y_j); so the tangents */
+                stage_state(st, K, j, hk, A, nst, Y);
+                for (int i = 0; i < S; i++)
+                    for (int p = 0; p < P; p++) {
+                        double acc = sig[i * P + p];
+                        for (int l = 0; l < j; l++) acc += hk * A[j * nst + l] * dK[(l * s1 + i) * p1 + p];
+                        dY[i * P + p] = acc;
+                    }
+                stage_input(U, k, (m + c[j]) / sub, in);
+                rhs_jac(Y, in[0], in[1], in[2], th, K + j * s1, FS, FT, FI, buf);
+                for (int i = 0; i < S; i++)
+                    for (int p = 0; p < P; p++) {
+                        double acc = FT[i * P + p];
+                        for (int r = 0; r < S; r++) acc += FS[i * S + r] * dY[r * P + p];
+                        dK[(j * s1 + i) * p1 + p] = acc;
+                    }
+            }
+            for (int i = 0; i < S; i++) {
+                double acc = 0.0;
+                for (int j = 0; j < nst; j++) acc += bw[j] * K[j * s1 + i];
+                st[i] += hk * acc;
+                for (int p = 0; p < P; p++) {
+                    double a2 = 0.0;
+                    for (int j = 0; j < nst; j++) a2 += bw[j] * dK[(j * s1 + i) * p1 + p];
+                    sig[i * P + p] += hk * a2;
+                }
+            }
+            if (HAS_BOUNDS) { /* a state held at a bound follows the bound */
+                project(st, lo, hi, fl);
+                for (int i = 0; i < S; i++)
+                    if (fl[i] != 0.0)
+                        for (int p = 0; p < P; p++) sig[i * P + p] = fl[i] > 0 ? dhi[i * P + p] : dlo[i * P + p];
+            }
+        }
+    }
+}
+
+/* Exact adjoint of forward_row: accumulates dL/dth (NT), dL/dU (T, 3), dL/ds0 (S) from dL/dy (T, O) and
+   dL/d(states at the samples) (T, S). */
+static void backward_row(int T, int NT, const double *U, const double *h, const double *th, const double *states,
+                         const double *gy, const double *gS, int nst, const double *c, const double *A,
+                         const double *bw, int sub, double *gth, double *gU, double *gs0) {
+    const int s1 = DIM(S), p1 = DIM(P);
+    double lam[s1], g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * 3];
+    double K[nst * s1], Y[s1], Yst[nst * s1], FS[nst * s1 * s1], FT[nst * s1 * p1], FI[nst * s1 * 3];
+    double lamK[nst * s1], lamY[s1], UIN[nst * 3], gin[3], st[s1], in[3];
+    double lo[s1], hi[s1], dlo[s1 * p1], dhi[s1 * p1];
+    double *sub_start = malloc(sizeof(double) * sub * s1);
+    double *flags = malloc(sizeof(double) * sub * s1);
+    double *buf = malloc(sizeof(double) * (nst + 1) * NB); /* the networks' layers per stage; the last: the sample */
+    (void)NT;
+    memset(K, 0, sizeof K);
+    for (int i = 0; i < S; i++) lam[i] = 0.0;
+    if (HAS_BOUNDS) bounds(states, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    for (int k = T - 1; k >= 0; k--) {
+        const double *sk = states + k * S;
+        /* output y_k = g(s_k, U_k, th) */
+        out_jac(sk, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, gs, gt, gi, buf + nst * NB);
+        for (int o = 0; o < O; o++) {
+            double w = gy[k * O + o];
+            if (w != 0.0) {
+                for (int i = 0; i < S; i++) lam[i] += gs[o * S + i] * w;
+                for (int p = 0; p < P; p++) gth[p] += gt[o * P + p] * w;
+                for (int q = 0; q < 3; q++) gU[k * 3 + q] += gi[o * 3 + q] * w;
+            }
+        }
+        for (int i = 0; i < S; i++) lam[i] += gS[k * S + i]; /* the states' own cotangent (return_states) */
+        if (NETS) { /* the networks' share of the output's adjoint */
+            gin[0] = gin[1] = gin[2] = 0.0;
+            out_net_vjp(sk, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, gy + k * O, lam, gth, gin, buf + nst * NB);
+            for (int q = 0; q < 3; q++) gU[k * 3 + q] += gin[q];
+        }
+        if (k == 0) break;
+        int kk = k - 1;
+        double hk = h[kk] / sub;
+        /* recover the start state of every sub-step of interval kk (one sub-step without bounds: the sample's) */
+        for (int i = 0; i < S; i++) st[i] = states[kk * S + i];
+        if (sub == 1 && !HAS_BOUNDS) {
+            for (int i = 0; i < S; i++) sub_start[i] = st[i];
+        } else {
+            for (int m = 0; m < sub; m++) {
+                for (int i = 0; i < S; i++) sub_start[m * s1 + i] = st[i];
+                substep(kk, m, st, K, Y, hk, U, th, nst, c, A, bw, sub, buf);
+                if (HAS_BOUNDS) project(st, lo, hi, flags + m * s1);
+            }
+        }
+        for (int m = sub - 1; m >= 0; m--) {
+            if (HAS_BOUNDS) { /* adjoint of the projection: a state held at a bound follows the bound */
+                for (int i = 0; i < S; i++) {
+                    double f = flags[m * s1 + i];
+                    if (f != 0.0) {
+                        for (int p = 0; p < P; p++) gth[p] += (f > 0 ? dhi[i * P + p] : dlo[i * P + p]) * lam[i];
+                        lam[i] = 0.0;
+                    }
+                }
+            }
+            /* stages of sub-step m with their Jacobians */
+            for (int j = 0; j < nst; j++) {
+                stage_state(sub_start + m * s1, K, j, hk, A, nst, Yst + j * s1);
+                stage_input(U, kk, (m + c[j]) / sub, UIN + j * 3);
+                rhs_jac(Yst + j * s1, UIN[j * 3], UIN[j * 3 + 1], UIN[j * 3 + 2], th, K + j * s1, FS + j * s1 * s1,
+                        FT + j * s1 * p1, FI + j * s1 * 3, buf + j * NB);
+            }
+            /* adjoint of s' = s + hk sum_j bw_j K_j, K_j = f(Y_j), Y_j = s + hk sum_l A_jl K_l */
+            for (int j = 0; j < nst; j++)
+                for (int i = 0; i < S; i++) lamK[j * s1 + i] = hk * bw[j] * lam[i];
+            for (int j = nst - 1; j >= 0; j--) {
+                double fr = (m + c[j]) / sub;
+                const double *fs = FS + j * s1 * s1, *ft = FT + j * s1 * p1, *fi = FI + j * s1 * 3;
+                const double *lk = lamK + j * s1;
+                for (int i = 0; i < S; i++) {
+                    double acc = 0.0;
+                    for (int r = 0; r < S; r++) acc += fs[r * S + i] * lk[r];
+                    lamY[i] = acc;
+                }
+                for (int p = 0; p < P; p++) {
+                    double acc = 0.0;
+                    for (int r = 0; r < S; r++) acc += ft[r * P + p] * lk[r];
+                    gth[p] += acc;
+                }
+                for (int q = 0; q < 3; q++) {
+                    double acc = 0.0;
+                    for (int r = 0; r < S; r++) acc += fi[r * 3 + q] * lk[r];
+                    gU[kk * 3 + q] += acc * (1.0 - fr);
+                    gU[(kk + 1) * 3 + q] += acc * fr;
+                }
+                if (NETS) { /* the networks' share: their weights, and through their inputs the state's adjoint */
+                    gin[0] = gin[1] = gin[2] = 0.0;
+                    rhs_net_vjp(Yst + j * s1, UIN[j * 3], UIN[j * 3 + 1], UIN[j * 3 + 2], th, lk, lamY, gth, gin,
+                                buf + j * NB);
+                    for (int q = 0; q < 3; q++) {
+                        gU[kk * 3 + q] += gin[q] * (1.0 - fr);
+                        gU[(kk + 1) * 3 + q] += gin[q] * fr;
+                    }
+                }
+                for (int l = 0; l < j; l++)
+                    for (int i = 0; i < S; i++) lamK[l * s1 + i] += hk * A[j * nst + l] * lamY[i];
+                for (int i = 0; i < S; i++) lam[i] += lamY[i];
+            }
+        }
+    }
+    for (int i = 0; i < S; i++) gs0[i] = lam[i];
+    free(sub_start);
+    free(flags);
+    free(buf);
+}
+
+void hh_forward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
+                const double *s0, long nst, const double *c, const double *A, const double *bw, long sub,
+                double *states, double *y) {
+    for (long b = b0; b < b1; b++)
+        forward_row(T, U + b * T * 3, h + b * (T - 1), th + b * NT, s0 + b * S, nst, c, A, bw, sub,
+                    states + b * T * S, y + b * T * O);
+}
+
+void hh_backward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
+                 const double *states, const double *gy, const double *gS, long nst, const double *c,
+                 const double *A, const double *bw, long sub, double *gth, double *gU, double *gs0) {
+    for (long b = b0; b < b1; b++)
+        backward_row(T, NT, U + b * T * 3, h + b * (T - 1), th + b * NT, states + b * T * S, gy + b * T * O,
+                     gS + b * T * S, nst, c, A, bw, sub, gth + b * NT, gU + b * T * 3, gs0 + b * S);
+}
+
+void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
+                const double *s0, const double *ds0, long nst, const double *c, const double *A, const double *bw,
+                long sub, double *y, double *dy) {
+    for (long b = b0; b < b1; b++)
+        tangent_row(T, U + b * T * 3, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * P, nst, c, A, bw, sub,
+                    y + b * T * O, dy + b * T * O * P);
+}
