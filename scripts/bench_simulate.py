@@ -194,7 +194,8 @@ def _fmt_time(s: float) -> str:
 
 def machine_markdown(m: dict) -> str:
     return (f"Machine: {m['cpu_cores']} CPU cores ({m['processor']}, {m['platform']}); Python {m['python']}, "
-            f"torch {m['torch']} ({m['torch_threads']} threads), C compiler {m['compiler']} (loops on {m['fast_threads']} threads), "
+            f"torch {m['torch']} ({m['torch_threads']} threads), C compiler {m['compiler']} "
+            f"(loops on {m['fast_threads']} threads), "
             f"numpy {m['numpy']}. Load average (1, 5, 15 min) at start: {m.get('load_average_at_start')} "
             f"(other jobs shared the machine). GPU: {m['gpu']}.")
 

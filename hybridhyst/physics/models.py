@@ -11,6 +11,9 @@ Two structures cover the seeds:
 
 Both expose the same integration interface to ``hybridhyst.simulate``: ``evaluate`` (parameter values
 for a batch of conditions), ``initial_state``, ``derivative`` and ``output``; shapes are batch-first.
+``derivative`` and ``output`` are written once for both backends: with tensors they compute the reference,
+with sympy symbols (``physics.symbolic.SymbolicState``, symbols for the inputs and parameters) they return
+lists of expressions, the equations the compiled path differentiates and generates code from.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from .effects.base import Effect, Kinematics
+from .effects.base import Effect, Kinematics, columns, zeros_like
 from .parameters import ParameterSpec, build_function, render_unit
 
 __all__ = ["Constitutive", "DrivenOscillator", "InputSample", "NominalModel"]
@@ -197,17 +200,25 @@ class NominalModel(nn.Module):
                 found = True
         return out if found else None
 
-    def _effects_pass(self, kin: Kinematics, state: torch.Tensor, P: Params, need_rates: bool,
-                      forces: dict | None = None):
-        """Go through the effects in order: total force, added mass and (optionally) state rates; each
-        effect's own force goes into ``forces`` when given."""
-        force = torch.zeros_like(kin.x)
+    def _effects_pass(self, kin: Kinematics, state, P: Params, need_rates: bool, forces: dict | None = None,
+                      substitute=None):
+        """Go through the effects in order: total force, added mass and (optionally) state rates (a list of
+        blocks, ``columns`` joins them); each effect's own force goes into ``forces`` when given.
+        ``substitute(key, effect, params, kin, state)`` may stand in for an effect: it returns that effect's
+        (force, rates), or None to run the effect (the compiled path puts a network's outputs in as symbols)."""
+        force = zeros_like(kin.x)
         mass = None
         rates = []
         for key, effect in self.effects.items():
             lo, hi = self._offsets[key]
             s = state[:, lo:hi]
             p = P[key]
+            stand_in = substitute(key, effect, p, kin, s) if substitute is not None else None
+            if stand_in is not None:
+                f, r = stand_in
+                force = force + f
+                rates += [r] if need_rates and effect.state_dim else []
+                continue
             if effect.state_dim and need_rates:
                 rates.append(effect.rate(p, kin, s))
             f = effect.force(p, kin, s)
@@ -237,10 +248,12 @@ class NominalModel(nn.Module):
     def output_dim(self) -> int:
         raise NotImplementedError
 
-    def derivative(self, state: torch.Tensor, inp: InputSample, P: Params) -> torch.Tensor:
+    def derivative(self, state: torch.Tensor, inp: InputSample, P: Params, substitute=None) -> torch.Tensor:
+        """ds/dt ``(batch, state_dim)`` (with symbols: a list of expressions); ``substitute``: ``_effects_pass``."""
         raise NotImplementedError
 
-    def output(self, state: torch.Tensor, inp: InputSample, P: Params) -> torch.Tensor:
+    def output(self, state: torch.Tensor, inp: InputSample, P: Params, substitute=None) -> torch.Tensor:
+        """The outputs ``(batch, output_dim)`` (with symbols: a list of expressions)."""
         raise NotImplementedError
 
 
@@ -262,17 +275,15 @@ class Constitutive(NominalModel):
     def kinematics(self, state, inp):
         return self._kinematics(inp)
 
-    def derivative(self, state, inp, P):
-        _, _, rates = self._effects_pass(self._kinematics(inp), state, P, need_rates=True)
-        if not rates:
-            return torch.zeros_like(state)
-        return torch.cat(rates, dim=1)
+    def derivative(self, state, inp, P, substitute=None):
+        _, _, rates = self._effects_pass(self._kinematics(inp), state, P, need_rates=True, substitute=substitute)
+        return columns(rates, state)
 
-    def output(self, state, inp, P):
-        force, mass, _ = self._effects_pass(self._kinematics(inp), state, P, need_rates=False)
+    def output(self, state, inp, P, substitute=None):
+        force, mass, _ = self._effects_pass(self._kinematics(inp), state, P, need_rates=False, substitute=substitute)
         if mass is not None:
             force = force + mass * inp.ddu
-        return force[:, None]
+        return columns([force], state)
 
 
 class DrivenOscillator(NominalModel):
@@ -326,20 +337,22 @@ class DrivenOscillator(NominalModel):
         x, v = state[:, 0], state[:, 1]
         if self.excitation == "base":
             x, v = x - inp.u, v - inp.du
-        return Kinematics(x=x, v=v, u=inp.u, du=inp.du, a=torch.zeros_like(x))
+        return Kinematics(x=x, v=v, u=inp.u, du=inp.du, a=zeros_like(x))
 
     def _acceleration(self, force, mass, inp, P):
         m = P[STRUCTURE]["mass"] if mass is None else P[STRUCTURE]["mass"] + mass
-        drive = P[STRUCTURE]["drive_gain"] * inp.u if self.excitation == "force" else torch.zeros_like(force)
+        drive = P[STRUCTURE]["drive_gain"] * inp.u if self.excitation == "force" else zeros_like(force)
         return (drive - force) / m
 
-    def derivative(self, state, inp, P):
-        force, mass, rates = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=True)
+    def derivative(self, state, inp, P, substitute=None):
+        force, mass, rates = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=True,
+                                                substitute=substitute)
         acc = self._acceleration(force, mass, inp, P)
-        return torch.cat([state[:, 1:2], acc[:, None], *rates], dim=1)
+        return columns([state[:, 1], acc, *rates], state)
 
-    def output(self, state, inp, P):
-        force, mass, _ = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=False)
+    def output(self, state, inp, P, substitute=None):
+        force, mass, _ = self._effects_pass(self._kinematics(state, inp), state, P, need_rates=False,
+                                            substitute=substitute)
         channels = {"x": lambda: state[:, 0], "v": lambda: state[:, 1], "force": lambda: force,
                     "a": lambda: self._acceleration(force, mass, inp, P)}
-        return torch.stack([channels[o]() for o in self.outputs], dim=1)
+        return columns([channels[o]() for o in self.outputs], state)

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+ZERO = sp.S.Zero
+
 
 class Sign(sp.Function):
     """sign(x) with derivative 0 (as torch.sign)."""
@@ -90,6 +92,8 @@ class SymbolicState:
 
     def __getitem__(self, index):
         _, i = index
+        if isinstance(i, slice):  # state[:, lo:hi]: an effect's own states
+            return SymbolicState(self.symbols[i])
         return self.symbols[i]
 
     @property

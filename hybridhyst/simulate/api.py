@@ -111,8 +111,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         linearly interpolated inside each sample interval, so for a driven model the scheme is second
         order in the sample interval whatever its own order; sub-steps refine the state, not the input.
     return_states : also return the states ``(batch, time, state_dim)``, differentiable on both backends.
-    backend : "reference" (the plain PyTorch loop) or "fast" (a C loop generated and built per model, with an exact discrete
-        adjoint, same values and gradients, networks included; ``hybridhyst.simulate.fast``); only for
+    backend : "reference" (the plain PyTorch loop) or "fast" (a C loop generated and built per model, with an exact
+        discrete adjoint, same values and gradients, networks included; ``hybridhyst.simulate.fast``); only for
         ``solver="fixed"``.
     values : parameter values per batch row, ``{effect: {parameter: (batch,)}}`` as returned by
         ``model.evaluate`` (the structure's under ``"structure"``); replaces the model's own values, so a

@@ -100,6 +100,21 @@ def rates(*columns):
     return list(columns)
 
 
+def zeros_like(x):
+    """Zero of x's kind: a tensor of zeros shaped like x, or the symbolic 0."""
+    return torch.zeros_like(x) if isinstance(x, torch.Tensor) else _symbolic().ZERO
+
+
+def columns(blocks: list, like):
+    """Blocks of columns side by side: ``(batch,)`` or ``(batch, k)`` tensors into one ``(batch, n)`` tensor
+    (``like``'s shape ``(batch, 0)`` when there are none), or symbols and lists of symbols into one list."""
+    if not isinstance(like, torch.Tensor):
+        return [x for b in blocks for x in (b if isinstance(b, (list, tuple)) else [b])]
+    if not blocks:
+        return like.new_zeros(like.shape[0], 0)
+    return torch.cat([b[:, None] if b.dim() == 1 else b for b in blocks], dim=1)
+
+
 def smooth_sign(v, width):
     """tanh(v / width): the smoothed sign used by every friction term (width > 0, in velocity units)."""
     return tanh(v / width)

@@ -87,8 +87,8 @@ def _network_lines(eq: Equations, printer, evaluate: bool, read: set) -> list[st
         if evaluate:
             lines.append(f"    double nin{k}[{net.widths[0]}];")
             lines += [f"    nin{k}[{a}] = {printer.doprint(e)};" for a, e in enumerate(net.inputs)]
-            lines.append(f"    _mlp_forward(nin{k}, th, {net.offset}, W{k}, {n_layers}, {_ACTIVATIONS[net.activation]}, "
-                         f"Z{k}, A{k}, {width});")
+            act = _ACTIVATIONS[net.activation]
+            lines.append(f"    _mlp_forward(nin{k}, th, {net.offset}, W{k}, {n_layers}, {act}, Z{k}, A{k}, {width});")
         lines += [f"    const double {o} = A{k}[{n_layers * width + j}];" for j, o in enumerate(net.outputs)]
     return lines
 
