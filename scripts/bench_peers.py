@@ -86,7 +86,7 @@ def torchdiffeq_grad(model, u, t, y_ref, adjoint: bool):
     from hybridhyst.physics.models import InputSample
     from hybridhyst.simulate.inputs import with_rates
 
-    U = with_rates(u, t)
+    U = with_rates(u[..., None], t)  # (B, T, 3)
     dt = float(t[1] - t[0])
     theta = leaves(start_values())
 
