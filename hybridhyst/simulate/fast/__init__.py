@@ -7,6 +7,7 @@ loop's (tests assert 1e-8 relative in float64). ``tangent_fast`` runs the same m
 w.r.t. every parameter in one pass (``simulate.simulate_jacobian``: Jacobians for least squares).
 """
 
+from .function import prebuild_models as prebuild_models
 from .function import simulate_fast as simulate_fast
 
-__all__ = ["simulate_fast"]
+__all__ = ["prebuild_models", "simulate_fast"]

@@ -7,7 +7,7 @@ import torch
 
 from ...physics.effects.neural import NeuralEffect
 from ..fixed import TABLEAUX
-from .codegen import compile_equations
+from .codegen import compile_equations, prebuild
 from .equations import build_equations
 
 _COMPILED: dict[int, tuple] = {}
@@ -37,6 +37,12 @@ def compiled(model):
         hit = (model, constants, eq, compile_equations(eq))
         _COMPILED[key] = hit
     return hit[2], hit[3]
+
+
+def prebuild_models(models) -> None:
+    """Build the compiled loops of several models side by side (one compiler process each, as many at once
+    as there are cores), before they are simulated one after another: a discovery step's candidates."""
+    prebuild([build_equations(m) for m in models])
 
 
 def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
