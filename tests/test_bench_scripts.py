@@ -25,7 +25,7 @@ def _run(script: str, tmp_path: Path, *extra: str) -> tuple[dict, str]:
     out = tmp_path / "bench.json"
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     done = subprocess.run([sys.executable, str(SCRIPTS / script), "--quick", "--json", str(out), *extra],
-                          cwd=ROOT, env=env, check=True, capture_output=True, text=True, timeout=300)
+                          cwd=ROOT, env=env, check=True, capture_output=True, text=True, timeout=1200)
     return json.loads(out.read_text()), done.stdout
 
 
@@ -155,3 +155,44 @@ def test_bench_jacobian_quick_agrees_with_finite_differences_and_reports_its_rat
     assert lm["exact"]["cost"] == pytest.approx(lm["finite_differences"]["cost"], rel=1e-5)
     assert lm["exact"]["evaluations"] < lm["finite_differences"]["evaluations"]
     assert bench.report_markdown(res) in stdout
+
+
+def test_bench_build_quick_times_first_calls_of_models_never_built(tmp_path):
+    res, stdout = _run("bench_build.py", tmp_path)
+    bench = _script("bench_build")
+    assert len(res["models"]) == 3 and "main_job" not in res
+    for m in res["models"].values():
+        assert _positive(m["values_s"], m["gradient_s"]) and m["gradient_s"] >= m["values_s"]
+    s = res["side_by_side"]
+    assert s["models"] == 3 and _positive(s["together_s"], s["one_after_another_s"])
+    assert bench.markdown(res) in stdout
+
+
+def test_bench_peers_quick_agrees_with_jax_and_reports_ratios(tmp_path):
+    res, stdout = _run("bench_peers.py", tmp_path)
+    bench = _script("bench_peers")
+    (row,) = res["rows"]
+    ours = row["peers"]["hybridhyst (compiled C, discrete adjoint)"]
+    assert _positive(ours["first_s"], ours["call_s"])
+    for name, peer in row["peers"].items():
+        if peer.get("call_s") is None:
+            assert "not installed" in peer["note"]  # JAX is an optional benchmark dependency
+            continue
+        assert peer["call_ratio"] == pytest.approx(peer["call_s"] / ours["call_s"])
+        if name.startswith("JAX"):  # the same classic RK4 written independently: the same gradient
+            assert peer["max_rel_grad_diff"] < 1e-8 and peer["max_rel_y_diff"] < 1e-10
+        elif name.startswith("torchdiffeq"):  # the 3/8 rule: the method's own error, small on this grid
+            assert peer["max_rel_y_diff"] < 0.05
+    assert bench.markdown(res) in stdout
+
+
+def test_bench_training_quick_times_epochs_of_every_module_on_the_same_windows(tmp_path):
+    res, stdout = _run("bench_training.py", tmp_path)
+    bench = _script("bench_training")
+    assert set(res["rows"]) == set(bench.MODULES)
+    windows = {row["windows"] for row in res["rows"].values()}
+    assert len(windows) == 1  # the same windows for every module
+    for row in res["rows"].values():
+        assert _positive(row["cpu"]["epoch_s"]) and len(row["cpu"]["all_epochs_s"]) == res["epochs"]
+    assert res["rows"]["LSTM (2×64)"]["cpu"]["ratio_to_lstm"] == 1.0
+    assert bench.markdown(res) in stdout

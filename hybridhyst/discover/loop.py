@@ -27,6 +27,7 @@ from ..identify import identify
 from ..identify.space import outside_domain
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
+from ..simulate.fast import prebuild_models
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
 from .fitting import at as _at
@@ -248,6 +249,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
                  if c.name not in tried]
         if not cands:
             break
+        if backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted in turn
+            _prebuild(cands, fit.model)
         ranking = []
         for cand in progress_bar(cands, "rank candidates", enabled=progress):
             try:
@@ -370,6 +373,21 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     }
     return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
                            splits=splits, initial_model=initial)
+
+
+def _prebuild(cands, model) -> None:
+    """Build the candidates' compiled loops at once (one compiler per core); a candidate that cannot be built is
+    left to its own fit, which skips it."""
+    built = []
+    for cand in cands:
+        try:
+            built.append(cand.build(model))
+        except (ValueError, RuntimeError):
+            continue
+    try:
+        prebuild_models(built)
+    except (ValueError, RuntimeError):
+        pass
 
 
 def _refit_on(model, records, sim: dict, lm_steps: int, box_factor: float):

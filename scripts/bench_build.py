@@ -1,0 +1,183 @@
+"""How long a model never run before waits for its compiled loops, and what that costs the main job.
+
+1. Per model, in an empty cache: the seconds from ``simulate(..., backend="fast")`` being called on a model the
+   machine has never built to its first values, and to its first gradient (equations, C source, the compiler,
+   loading, the simulation itself), for every named composition, the two models holding every library effect
+   (the largest loops the library builds), and an in-the-loop hybrid (a 2×32 network inside the Bouc–Wen
+   benchmark oscillator). Then all of them built side by side (``prebuild_models``) against one after another.
+2. ``--main-job``: the main job (``hybridhyst-discover`` on the bundled data) on an empty cache, then again warm,
+   back to back, and their ratio.
+
+    PYTHONPATH=. python scripts/bench_build.py --main-job --json experiments/performance/bench_build.json --write-readme
+
+``--quick``: three models, no main job.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+README = ROOT / "experiments" / "performance" / "README.md"
+BEGIN, END = "<!-- bench_build:begin -->", "<!-- bench_build:end -->"
+
+
+def every_effect(structure: str):
+    """Every library effect but the delay and the network at non-neutral values, in one model."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_fast import _every_effect
+
+    return _every_effect(structure)
+
+
+def neural_hybrid():
+    from hybridhyst.physics.compositions import boucwen_benchmark
+    from hybridhyst.physics.effects import NeuralEffect
+
+    net = NeuralEffect(latent_states=1, hidden="2x32", scales={"x": 1e-3, "v": 0.5, "F": 50.0})
+    return boucwen_benchmark().augmented({"neural": net})
+
+
+def models(quick: bool) -> dict:
+    from hybridhyst.physics.compositions import COMPOSITIONS
+
+    out = {name: make for name, make in sorted(COMPOSITIONS.items())}
+    out["every effect (constitutive)"] = lambda: every_effect("constitutive")
+    out["every effect (oscillator)"] = lambda: every_effect("oscillator")
+    out["in-the-loop hybrid (Bouc–Wen + 2×32 network)"] = neural_hybrid
+    if quick:
+        out = dict(list(out.items())[:3])
+    return out
+
+
+def _fresh(cache: str):
+    from hybridhyst.simulate.fast import codegen, function
+
+    os.environ["HYBRIDHYST_CACHE"] = cache
+    codegen._MODULES.clear()
+    function._COMPILED.clear()
+
+
+def _inputs():
+    t = torch.arange(200, dtype=torch.float64) * 1e-3
+    u = 0.5 * torch.sin(2 * math.pi * 5 * t)[None]
+    return u, t
+
+
+def first_call(make) -> dict:
+    """Seconds to the first values and the first gradient of a model never built, in an empty cache."""
+    from hybridhyst.simulate import simulate
+    from hybridhyst.simulate.fast.equations import build_equations
+
+    model = make().double()
+    u, t = _inputs()
+    cond = {"pressure_mpa": torch.tensor([0.05])}
+    with tempfile.TemporaryDirectory() as cache:
+        _fresh(cache)
+        t0 = time.perf_counter()
+        y = simulate(model, u, t=t, conditions=cond, backend="fast")
+        values = time.perf_counter() - t0
+        params = [p for p in model.parameters() if p.requires_grad]
+        torch.autograd.grad(y.square().sum(), params, allow_unused=True)
+        gradient = time.perf_counter() - t0
+    eq = build_equations(model)
+    return {"values_s": values, "gradient_s": gradient, "states": len(eq.state), "parameters": len(eq.params),
+            "networks": len(eq.networks)}
+
+
+def side_by_side(makers: dict) -> dict:
+    """All models built at once (``prebuild_models``) against the sum of their builds one after another."""
+    from hybridhyst.simulate.fast import prebuild_models
+
+    built = [make().double() for make in makers.values()]
+    with tempfile.TemporaryDirectory() as cache:
+        _fresh(cache)
+        t0 = time.perf_counter()
+        prebuild_models(built)
+        together = time.perf_counter() - t0
+    return {"models": len(built), "together_s": together}
+
+
+def main_job() -> dict:
+    """``hybridhyst-discover`` on an empty cache, then warm, back to back."""
+    out = {}
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as runs:
+        env = {**os.environ, "HYBRIDHYST_CACHE": cache}
+        for kind in ("cold", "warm"):
+            t0 = time.perf_counter()
+            subprocess.run(["hybridhyst-discover", f"hydra.run.dir={runs}/{kind}", "progress=false"], env=env,
+                           check=True, capture_output=True)
+            out[f"{kind}_s"] = time.perf_counter() - t0
+    out["ratio"] = out["cold_s"] / out["warm_s"]
+    return out
+
+
+def run(quick: bool, with_main_job: bool) -> dict:
+    torch.set_default_dtype(torch.float64)
+    makers = models(quick)
+    old = os.environ.get("HYBRIDHYST_CACHE")
+    res = {"cpu_cores": os.cpu_count(), "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
+           "models": {name: first_call(make) for name, make in makers.items()}}
+    res["side_by_side"] = side_by_side(makers)
+    res["side_by_side"]["one_after_another_s"] = sum(m["values_s"] for m in res["models"].values())
+    if old is None:
+        os.environ.pop("HYBRIDHYST_CACHE", None)
+    else:
+        os.environ["HYBRIDHYST_CACHE"] = old
+    if with_main_job:
+        res["main_job"] = main_job()
+    return res
+
+
+def markdown(res: dict) -> str:
+    lines = [f"A model never built before, in an empty cache ({res['cpu_cores']} CPU cores, load average at the start "
+             f"{res['load_average_at_start']}): seconds from the first `simulate(..., backend=\"fast\")` call to its "
+             "values (equations, C source, compiler, load, a 200-step simulation) and to its first gradient.", "",
+             "| model | states | parameters | first values [s] | first gradient [s] |", "|---|---|---|---|---|"]
+    for name, m in res["models"].items():
+        lines.append(f"| {name} | {m['states']} | {m['parameters']} | {m['values_s']:.2f} | {m['gradient_s']:.2f} |")
+    s = res["side_by_side"]
+    lines += ["", f"All {s['models']} built side by side (`prebuild_models`, one compiler process per core): "
+                  f"{s['together_s']:.1f} s, against {s['one_after_another_s']:.1f} s one after another."]
+    if "main_job" in res:
+        m = res["main_job"]
+        lines += ["", f"The main job (`hybridhyst-discover`, bundled BRFD data) on an empty cache: "
+                      f"{m['cold_s']:.0f} s; then warm: {m['warm_s']:.0f} s; cold / warm = {m['ratio']:.2f}."]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--main-job", action="store_true")
+    ap.add_argument("--json", type=Path)
+    ap.add_argument("--write-readme", action="store_true")
+    args = ap.parse_args(argv)
+    res = run(args.quick, args.main_job)
+    text = markdown(res)
+    print(text)
+    if args.json:
+        args.json.write_text(json.dumps(res, indent=1))
+    if args.write_readme:
+        readme = README.read_text()
+        block = f"{BEGIN}\n{text}\n{END}"
+        if BEGIN in readme:
+            readme = readme[: readme.index(BEGIN)] + block + readme[readme.index(END) + len(END):]
+        else:
+            readme += "\n" + block + "\n"
+        README.write_text(readme)
+
+
+if __name__ == "__main__":
+    main()
