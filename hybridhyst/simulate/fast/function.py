@@ -142,4 +142,5 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))
     module.tangent(numpy(U), numpy(h), numpy(_theta(eq, P, model, B, U)), numpy(state0), numpy(dstate0), c, A, bw,
                    int(substeps), y, dy)
-    return torch.from_numpy(y).to(U.dtype), torch.from_numpy(dy).to(U.dtype)
+    return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
+            torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
