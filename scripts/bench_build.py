@@ -62,10 +62,10 @@ def models(quick: bool) -> dict:
 
 
 def _fresh(cache: str):
-    from hybridhyst.simulate.fast import codegen, function
+    from hybridhyst.simulate.fast import build, function
 
     os.environ["HYBRIDHYST_CACHE"] = cache
-    codegen._MODULES.clear()
+    build._MODULES.clear()
     function._COMPILED.clear()
 
 

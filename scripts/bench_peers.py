@@ -184,12 +184,12 @@ def run(quick: bool) -> dict:
 def _first_call_fresh(u, t, y_ref) -> float:
     """hybridhyst's first gradient of a model never built before: an empty cache, a fresh model."""
     from hybridhyst.physics.compositions import boucwen_benchmark
-    from hybridhyst.simulate.fast import codegen, function
+    from hybridhyst.simulate.fast import build, function
 
     old = os.environ.get("HYBRIDHYST_CACHE")
     with tempfile.TemporaryDirectory() as cache:
         os.environ["HYBRIDHYST_CACHE"] = cache
-        codegen._MODULES.clear()
+        build._MODULES.clear()
         function._COMPILED.clear()
         t0 = time.perf_counter()
         hybridhyst_grad(boucwen_benchmark().double(), u, t, y_ref)

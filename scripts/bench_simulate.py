@@ -41,7 +41,7 @@ MIXTURE, PRESSURE = "1:3", 0.05
 def machine_info() -> dict:
     import subprocess
 
-    from hybridhyst.simulate.fast.codegen import _threads, compiler
+    from hybridhyst.simulate.fast.build import compiler, row_threads
 
     cc = subprocess.run([compiler(), "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     gpu = torch.cuda.get_device_name(0) if torch.cuda.is_available() else "not measured (no GPU in this session)"
@@ -49,7 +49,7 @@ def machine_info() -> dict:
         "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
         "cpu_cores": os.cpu_count(), "torch": torch.__version__, "compiler": cc,
         "numpy": np.__version__, "python": platform.python_version(), "torch_threads": torch.get_num_threads(),
-        "fast_threads": _threads(), "gpu": gpu,
+        "fast_threads": row_threads(), "gpu": gpu,
         "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
     }
 

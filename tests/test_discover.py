@@ -503,3 +503,19 @@ def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_di
     said = []
     assert check_discovery(result, keep_going=True, warn=said.append)[0].record == "coarse"
     assert said and said[0].startswith("warning: the discovered model's simulation diverged")
+
+
+def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_another(float64):
+    """``workers``: each candidate's fit in a thread of its own; the compiled loops release the GIL, and every fit
+    is deterministic, so the steps, refusals, parameters and errors are the same numbers."""
+    records = _damper_records(NOISE)
+    kw = dict(candidates=["coulomb", "cubic_stiffness", "backlash"], split={"held_out": {"amplitude_in": [1.5]}},
+              conditions=False, noise_sd=NOISE, **FAST)
+    one = discover(records, base_model("coulomb"), workers=1, **kw).report
+    three = discover(records, base_model("coulomb"), workers=3, **kw).report
+    for key in ("steps", "rejected"):
+        assert [s["effect"] for s in one[key]] == [s["effect"] for s in three[key]]
+        for a, b in zip(one[key], three[key]):
+            assert a["evidence"]["ranking"] == b["evidence"]["ranking"]
+            assert a["parameters"] == b["parameters"]
+    assert one["after"]["test_rmse"] == three["after"]["test_rmse"]

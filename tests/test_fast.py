@@ -220,27 +220,27 @@ def test_jacobian_refuses_what_it_does_not_cover():
 
 
 def test_no_c_compiler_is_one_clear_error(monkeypatch):
-    from hybridhyst.simulate.fast import codegen
+    from hybridhyst.simulate.fast import build
 
-    monkeypatch.setattr(codegen.shutil, "which", lambda name: None)
+    monkeypatch.setattr(build.shutil, "which", lambda name: None)
     with pytest.raises(RuntimeError, match="C compiler.*backend='reference'"):
-        codegen.compiler()
+        build.compiler()
 
 
 def test_a_failing_build_names_the_command_and_the_compiler_message(tmp_path, monkeypatch):
-    from hybridhyst.simulate.fast import codegen
+    from hybridhyst.simulate.fast import build
 
     monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path))
     with pytest.raises(RuntimeError, match="(?s)building the model.s compiled loops failed.*error"):
-        codegen._build("this is not C;\n", "broken")
+        build._build("this is not C;\n", "broken")
     assert not list((tmp_path / "fast").glob("*.so"))  # nothing half-built is left to be loaded later
 
 
 def test_a_model_is_built_once_and_found_again_in_the_disk_cache(tmp_path, monkeypatch, float64):
-    from hybridhyst.simulate.fast import codegen, function
+    from hybridhyst.simulate.fast import build, function
 
     monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path))
-    monkeypatch.setattr(codegen, "_MODULES", {})
+    monkeypatch.setattr(build, "_MODULES", {})
     monkeypatch.setattr(function, "_COMPILED", {})
     model = DrivenOscillator({"spring": EFFECTS["linear_stiffness"](k=3.0), "coulomb": EFFECTS["coulomb"](Fc=0.2)})
     u = torch.sin(torch.linspace(0, 6, 80)).double()[None]
@@ -249,19 +249,19 @@ def test_a_model_is_built_once_and_found_again_in_the_disk_cache(tmp_path, monke
     libs = list((tmp_path / "fast").glob("hh_*.so"))
     assert len(libs) == 1
     built = libs[0].stat().st_mtime_ns
-    codegen._MODULES.clear()  # a new process: the library is loaded, not built again
+    build._MODULES.clear()  # a new process: the library is loaded, not built again
     function._COMPILED.clear()
     again = simulate(model, u, t=t, backend="fast")
     assert torch.equal(first, again) and libs[0].stat().st_mtime_ns == built
 
 
 def test_rows_spread_over_threads_give_the_same_numbers_as_one_thread(monkeypatch, float64):
-    from hybridhyst.simulate.fast import codegen
+    from hybridhyst.simulate.fast import build
 
     model = COMPOSITIONS["bouc_wen_classic"]().double()
     t = torch.arange(300) * 1e-3
     u = torch.sin(2 * math.pi * 5 * t[None] + torch.linspace(0, 3, 7)[:, None])
-    monkeypatch.setattr(codegen, "_MIN_ROW_WORK", 1)
+    monkeypatch.setattr(build, "_MIN_ROW_WORK", 1)
 
     def run(threads):
         monkeypatch.setenv("HYBRIDHYST_FAST_THREADS", str(threads))
@@ -274,16 +274,16 @@ def test_rows_spread_over_threads_give_the_same_numbers_as_one_thread(monkeypatc
 
 
 def test_prebuild_builds_several_models_side_by_side(tmp_path, monkeypatch, float64):
-    from hybridhyst.simulate.fast import codegen, function, prebuild_models
+    from hybridhyst.simulate.fast import build, function, prebuild_models
 
     monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path))
-    monkeypatch.setattr(codegen, "_MODULES", {})
+    monkeypatch.setattr(build, "_MODULES", {})
     monkeypatch.setattr(function, "_COMPILED", {})
     models = [Constitutive({"viscous": EFFECTS["viscous"](c=0.3), name: EFFECTS[name](**EFFECT_VALUES[name])})
               for name in ("dahl", "coulomb", "stribeck")]
     prebuild_models(models)
     assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 3
-    assert len(codegen._MODULES) == 3
+    assert len(build._MODULES) == 3
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here (the GPU machine runs it)")

@@ -97,6 +97,18 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     return lines
 
 
+def _workers(d) -> int:
+    """``discover.workers``: a number, or auto (one per core this process may use)."""
+    from ..simulate.fast.build import row_threads
+
+    w = d.get("workers", 1)
+    if str(w) == "auto":
+        return row_threads()
+    if not isinstance(w, int) or isinstance(w, bool) or w < 1:
+        raise ValueError(f"discover.workers must be a whole number >= 1 or auto, got {w!r}")
+    return w
+
+
 def run(cfg: DictConfig) -> dict:
     """Discover, write the run directory, print a short summary, return ``discovery.json``'s content."""
     check_app(cfg, "discover")
@@ -121,7 +133,7 @@ def run(cfg: DictConfig) -> dict:
                        fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
                        backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
                        leftover=str(d.leftover), validation=str(d.validation),
-                       start_states=bool(d.start_states), progress=bool(cfg.progress))
+                       start_states=bool(d.start_states), progress=bool(cfg.progress), workers=_workers(d))
         result = discover(records, model, **options)
     check_discovery(result, keep_going=bool(cfg.get("keep_going", False)),
                     time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))

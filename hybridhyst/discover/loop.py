@@ -17,6 +17,7 @@ import copy
 import math
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import torch
@@ -94,7 +95,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
-             validation: str = "records", start_states: bool = True, progress: bool = True) -> DiscoveryResult:
+             validation: str = "records", start_states: bool = True, progress: bool = True,
+             workers: int = 1) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -137,6 +139,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         training-only fit (before the refit) so that the validation records are out of sample for the physics
         too. Either's share of the residual recovered on validation records is reported and sets the flag when
         no noise level is known.
+    workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
+        fit's rows then run in its own thread). The fits and the result are the same for any number.
 
     Raises
     ------
@@ -251,13 +255,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
             break
         if backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted in turn
             _prebuild(cands, fit.model)
-        ranking = []
-        for cand in progress_bar(cands, "rank candidates", enabled=progress):
-            try:
-                c_fit = fit_candidate(cand, fit.model, train, _at(sim, fit), lm_steps, box_factor)
-            except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
-                c_fit = None
-            ranking.append((cand, c_fit))
+        ranking = _fit_candidates(cands, fit.model, train, _at(sim, fit), lm_steps, box_factor, int(workers),
+                                  progress)
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
         ref = {s_: sse_at(fit, train, sim, s_) for s_ in {f.substeps for _, f in ranking if f is not None}}
         evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
@@ -373,6 +372,22 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     }
     return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
                            splits=splits, initial_model=initial)
+
+
+def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, progress: bool) -> list:
+    """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``), ``workers`` at a
+    time; a candidate that cannot be simulated gets None."""
+    def one(cand):
+        try:
+            return fit_candidate(cand, model, train, sim, lm_steps, box_factor)
+        except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
+            return None
+
+    if workers <= 1 or len(cands) < 2:
+        return [(cand, one(cand)) for cand in progress_bar(cands, "rank candidates", enabled=progress)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        fits = list(progress_bar(pool.map(one, cands), "rank candidates", total=len(cands), enabled=progress))
+    return list(zip(cands, fits))
 
 
 def _prebuild(cands, model) -> None:

@@ -21,6 +21,7 @@ from ..data.batch import record_batches
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
 from ..simulate import jacobian_covers, resolved_substeps, simulate, simulate_jacobian
+from ..simulate.api import dual_level
 from ..simulate.inputs import with_rates
 from .fisher import FisherReport, fisher_analysis, output_jacobian
 from .refine import levenberg_marquardt
@@ -140,7 +141,7 @@ class RecordsProblem:
         N, F = X.shape[0], len(idx)
         E = X.new_zeros(N, F, X.shape[1])
         E[:, torch.arange(F), idx] = 1.0
-        with fwAD.dual_level():
+        with dual_level():
             values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
             tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
         return {k: {n: X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
 from collections.abc import Callable
 
 import numpy as np
 import torch
+import torch.autograd.forward_ad as fwAD
 
 from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
@@ -181,6 +184,17 @@ def jacobian_covers(model) -> bool:
                    for e in model.effects.values())
 
 
+_DUAL = threading.Lock()
+
+
+@contextlib.contextmanager
+def dual_level():
+    """torch's forward-AD level (``torch.autograd.forward_ad.dual_level``), entered by one thread at a time:
+    torch allows no two levels at once, and discovery fits candidates in threads."""
+    with _DUAL, fwAD.dual_level():
+        yield
+
+
 def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None = None, conditions=None,
                       method: str | None = None, substeps: int = 1):
     """Responses and their derivatives w.r.t. every parameter value in one compiled pass (forward
@@ -194,8 +208,6 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     Returns ``(y (batch, time, output_dim), dy (batch, time, output_dim, n), keys)``: ``keys`` lists the n
     parameters as ``(effect, name)`` (the structure's under ``"structure"``) in the order of ``dy``'s last axis.
     """
-    import torch.autograd.forward_ad as fwAD
-
     from .fast.function import compiled, tangent_fast
 
     dtype = _model_dtype(model)
@@ -211,7 +223,7 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     n = len(keys)
     ds0 = s0.new_zeros(B, s0.shape[1], n)
     if n and s0.shape[1]:  # the initial state's derivatives: forward-mode AD, each parameter in its own B rows
-        with fwAD.dual_level():
+        with dual_level():
             rows = {k: {name: v.expand(B).repeat(n) for name, v in d.items()} for k, d in P.items()
                     if isinstance(d, dict)}
             for j, (k, name) in enumerate(keys):

@@ -13,24 +13,14 @@ P parameters in ``th``; the Jacobian kernels hold every network's output fixed, 
 ``out_net_vjp`` add the networks' part of the chain rule by back-propagating the adjoint through them
 (``_network_vjp``), reading the layers the Jacobian kernel left in a buffer at the same point.
 
-The file is built with the system C compiler (``cc``, or ``$CC``) into a shared library — about a second
-for a model of the library's effects, where numba took 10–45 s (``experiments/performance``) — and loaded
-through ctypes. Libraries are cached on disk keyed by the hash of their source and the compiler command.
+``build.py`` builds the file with the system C compiler into a shared library and loads it through ctypes.
 """
 
 from __future__ import annotations
 
-import ctypes
 import hashlib
-import os
-import shutil
-import subprocess
-import tempfile
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import numpy as np
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
@@ -183,174 +173,12 @@ def generate_source(eq: Equations) -> str:
     return "\n\n".join(p for p in parts if p) + "\n"
 
 
-def _cache_dir() -> Path:
-    root = os.environ.get("HYBRIDHYST_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "hybridhyst")
-    path = Path(root) / "fast"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".write-test"
-        probe.write_text("ok")
-        probe.unlink()
-    except OSError:
-        path = Path(tempfile.gettempdir()) / "hybridhyst-fast"
-        path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-_MODULES: dict[str, object] = {}
-_LOCK = threading.Lock()
-_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu99", "-fno-math-errno"]
-
-
-def compiler() -> str:
-    """The C compiler the fast path builds models with: ``$CC`` or the first of cc, gcc, clang on PATH."""
-    for name in [os.environ.get("CC")] + ["cc", "gcc", "clang"]:
-        if name and shutil.which(name):
-            return name
-    raise RuntimeError("the fast backend builds each model with a C compiler and found none (set CC, or install gcc "
-                       "or clang); simulate(..., backend='reference') runs without one, more slowly")
-
-
 # the generator's own sources: a changed template or kernel generator must not find the libraries it built before
 _GENERATOR = hashlib.sha1(Path(__file__).read_bytes() + RUNTIME.encode() + LOOPS.encode()).hexdigest()[:16]
 
 
-def _equations_key(eq: Equations) -> str:
+def equations_key(eq: Equations) -> str:
     """A hash of the equations themselves (cheap next to generating their source: CSE and Jacobians) and of
     this generator."""
     text = repr((eq.state, eq.inputs, eq.params, eq.rhs, eq.outputs, eq.lower, eq.upper, eq.networks, _GENERATOR))
     return hashlib.sha1(text.encode()).hexdigest()[:16]
-
-
-def _write(path: Path, text: str) -> None:
-    tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
-def _build(src: str, digest: str) -> Path:
-    """The shared library of ``src`` in the cache, built now if it is not there (written under a temporary name
-    and renamed, so processes building the same model at once never load half a file)."""
-    lib = _cache_dir() / f"hh_{digest}.so"
-    if lib.exists():
-        return lib
-    c_file = _cache_dir() / f"hh_{digest}.c"
-    _write(c_file, src)
-    tmp = lib.with_suffix(f".{os.getpid()}.{threading.get_ident()}.so")
-    cmd = [compiler(), *_FLAGS, "-o", str(tmp), str(c_file), "-lm"]
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise RuntimeError(f"building the model's compiled loops failed ({' '.join(cmd)}):\n{done.stderr[-3000:]}")
-    os.replace(tmp, lib)
-    return lib
-
-
-def compile_equations(eq: Equations) -> Compiled:
-    """The compiled loops of these equations (built on first use, then loaded from the disk cache).
-
-    Libraries are found again by the hash of the equations (an index file next to them), so a model seen
-    before — in this process or an earlier one — skips the source generation as well as the build.
-    """
-    key = _equations_key(eq)
-    with _LOCK:
-        if key in _MODULES:
-            return _MODULES[key]
-    index = _cache_dir() / f"eq_{key}.txt"
-    digest = index.read_text().strip() if index.exists() else ""
-    lib = _cache_dir() / f"hh_{digest}.so"
-    if not digest or not lib.exists():
-        src = generate_source(eq)
-        digest = hashlib.sha1(" ".join([*_FLAGS, src]).encode()).hexdigest()[:16]
-        lib = _build(src, digest)
-        _write(index, digest)
-    module = Compiled(lib, len(eq.state), len(eq.params), len(eq.outputs))
-    with _LOCK:
-        return _MODULES.setdefault(key, module)
-
-
-def prebuild(equations: list[Equations], workers: int | None = None) -> None:
-    """Build several models' libraries at once (one compiler process each, ``workers`` at a time): a
-    discovery step's candidates are built side by side instead of one after the other."""
-    todo = [eq for eq in equations if _equations_key(eq) not in _MODULES]
-    if len(todo) < 2:
-        for eq in todo:
-            compile_equations(eq)
-        return
-    with ThreadPoolExecutor(max_workers=workers or _threads()) as pool:
-        list(pool.map(compile_equations, todo))
-
-
-def _threads() -> int:
-    """Threads the loops spread a batch's rows over: ``$HYBRIDHYST_FAST_THREADS`` or the cores this process
-    may use."""
-    env = os.environ.get("HYBRIDHYST_FAST_THREADS")
-    if env:
-        return max(1, int(env))
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
-
-
-_POOL: ThreadPoolExecutor | None = None
-_MIN_ROW_WORK = 20_000  # sample-steps per thread below which one thread runs the batch (a thread costs ~50 µs)
-
-
-def _pointer(a: np.ndarray) -> int:
-    return a.ctypes.data
-
-
-class Compiled:
-    """One model's built loops: ``forward``, ``backward`` and ``tangent`` over numpy float64 arrays (the
-    layout of ``loops.c``), with the rows of a batch spread over threads (ctypes releases the GIL)."""
-
-    def __init__(self, path: Path, n_state: int, n_param: int, n_out: int):
-        self.path = path
-        self.S, self.P, self.O = n_state, n_param, n_out
-        lib = ctypes.CDLL(str(path))
-        L, V = ctypes.c_long, ctypes.c_void_p
-        self._fns = {}
-        for name, n_before, n_after in (("forward", 4, 2), ("backward", 6, 3), ("tangent", 5, 2)):
-            fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
-            fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
-            fn.restype = None
-            self._fns[name] = fn
-
-    def _run(self, name: str, B: int, T: int, arrays_before: list, nst: int, tableau: list, sub: int,
-             arrays_after: list, NT: int) -> None:
-        for a in arrays_before + tableau + arrays_after:
-            assert a.dtype == np.float64 and a.flags.c_contiguous, name
-        fn = self._fns[name]
-        ptrs_before = [_pointer(a) for a in arrays_before]
-        ptrs_tab = [_pointer(a) for a in tableau]
-        ptrs_after = [_pointer(a) for a in arrays_after]
-
-        def rows(b0, b1):
-            fn(b0, b1, T, NT, *ptrs_before, nst, *ptrs_tab, sub, *ptrs_after)
-
-        n = min(_threads(), B, max(1, B * T * sub // _MIN_ROW_WORK))
-        if n <= 1:
-            rows(0, B)
-            return
-        global _POOL
-        with _LOCK:
-            if _POOL is None or _POOL._max_workers < n:
-                _POOL = ThreadPoolExecutor(max_workers=n)
-            pool = _POOL
-        cuts = np.linspace(0, B, n + 1).round().astype(int)
-        list(pool.map(lambda i: rows(int(cuts[i]), int(cuts[i + 1])), range(n)))
-
-    def forward(self, U, h, th, s0, c, A, bw, sub, states, y):
-        """States at the sample times and outputs: U (B,T,3), h (B,T-1), th (B,NT), s0 (B,S)."""
-        self._run("forward", U.shape[0], U.shape[1], [U, h, th, s0], c.shape[0], [c, A, bw], sub, [states, y],
-                  th.shape[1])
-
-    def backward(self, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
-        """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy and dL/d(states)."""
-        self._run("backward", U.shape[0], U.shape[1], [U, h, th, states, gy, gS], c.shape[0], [c, A, bw], sub,
-                  [gth, gU, gs0], th.shape[1])
-
-    def tangent(self, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
-        """Outputs y (B,T,O) and their derivatives dy (B,T,O,P) w.r.t. every parameter, given ds0 (B,S,P)."""
-        self._run("tangent", U.shape[0], U.shape[1], [U, h, th, s0, ds0], c.shape[0], [c, A, bw], sub, [y, dy],
-                  th.shape[1])

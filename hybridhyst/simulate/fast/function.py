@@ -7,7 +7,7 @@ import torch
 
 from ...physics.effects.neural import NeuralEffect
 from ..fixed import TABLEAUX
-from .codegen import compile_equations, prebuild
+from .build import compile_equations, prebuild
 from .equations import build_equations
 
 _COMPILED: dict[int, tuple] = {}

@@ -1,0 +1,193 @@
+"""Build a model's generated C (``codegen``) with the system C compiler and load it: the compiled loops.
+
+The file is built with the system C compiler (``cc``, or ``$CC``) into a shared library — well under two
+seconds for a model of the library's effects, where numba took 10–45 s (``experiments/performance``) — and
+loaded through ctypes, which releases the GIL: the rows of a batch run on several threads. Libraries are
+cached on disk (``$HYBRIDHYST_CACHE`` or ``~/.cache/hybridhyst``) keyed by the hash of their source and the
+compiler flags, found again from the equations' hash without generating the source.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from .codegen import equations_key, generate_source
+from .equations import Equations
+
+
+def _cache_dir() -> Path:
+    root = os.environ.get("HYBRIDHYST_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "hybridhyst")
+    path = Path(root) / "fast"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write-test"
+        probe.write_text("ok")
+        probe.unlink()
+    except OSError:
+        path = Path(tempfile.gettempdir()) / "hybridhyst-fast"
+        path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+_MODULES: dict[str, object] = {}
+_LOCK = threading.Lock()
+_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu99", "-fno-math-errno"]
+
+
+def compiler() -> str:
+    """The C compiler the fast path builds models with: ``$CC`` or the first of cc, gcc, clang on PATH."""
+    for name in [os.environ.get("CC")] + ["cc", "gcc", "clang"]:
+        if name and shutil.which(name):
+            return name
+    raise RuntimeError("the fast backend builds each model with a C compiler and found none (set CC, or install gcc "
+                       "or clang); simulate(..., backend='reference') runs without one, more slowly")
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _build(src: str, digest: str) -> Path:
+    """The shared library of ``src`` in the cache, built now if it is not there (written under a temporary name
+    and renamed, so processes building the same model at once never load half a file)."""
+    lib = _cache_dir() / f"hh_{digest}.so"
+    if lib.exists():
+        return lib
+    c_file = _cache_dir() / f"hh_{digest}.c"
+    _write(c_file, src)
+    tmp = lib.with_suffix(f".{os.getpid()}.{threading.get_ident()}.so")
+    cmd = [compiler(), *_FLAGS, "-o", str(tmp), str(c_file), "-lm"]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"building the model's compiled loops failed ({' '.join(cmd)}):\n{done.stderr[-3000:]}")
+    os.replace(tmp, lib)
+    return lib
+
+
+def compile_equations(eq: Equations) -> Compiled:
+    """The compiled loops of these equations (built on first use, then loaded from the disk cache).
+
+    Libraries are found again by the hash of the equations (an index file next to them), so a model seen
+    before — in this process or an earlier one — skips the source generation as well as the build.
+    """
+    key = equations_key(eq)
+    with _LOCK:
+        if key in _MODULES:
+            return _MODULES[key]
+    index = _cache_dir() / f"eq_{key}.txt"
+    digest = index.read_text().strip() if index.exists() else ""
+    lib = _cache_dir() / f"hh_{digest}.so"
+    if not digest or not lib.exists():
+        src = generate_source(eq)
+        digest = hashlib.sha1(" ".join([*_FLAGS, src]).encode()).hexdigest()[:16]
+        lib = _build(src, digest)
+        _write(index, digest)
+    module = Compiled(lib, len(eq.state), len(eq.params), len(eq.outputs))
+    with _LOCK:
+        return _MODULES.setdefault(key, module)
+
+
+def prebuild(equations: list[Equations], workers: int | None = None) -> None:
+    """Build several models' libraries at once (one compiler process each, ``workers`` at a time): a
+    discovery step's candidates are built side by side instead of one after the other."""
+    todo = [eq for eq in equations if equations_key(eq) not in _MODULES]
+    if len(todo) < 2:
+        for eq in todo:
+            compile_equations(eq)
+        return
+    with ThreadPoolExecutor(max_workers=workers or row_threads()) as pool:
+        list(pool.map(compile_equations, todo))
+
+
+def row_threads() -> int:
+    """Threads the loops spread a batch's rows over: ``$HYBRIDHYST_FAST_THREADS`` or the cores this process
+    may use."""
+    env = os.environ.get("HYBRIDHYST_FAST_THREADS")
+    if env:
+        return max(1, int(env))
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+_POOL: ThreadPoolExecutor | None = None
+_MIN_ROW_WORK = int(os.environ.get("HYBRIDHYST_FAST_MIN_WORK", "20000"))  # sample-steps per thread below which
+# one thread runs the batch (handing work to a thread costs tens of µs)
+
+
+def _pointer(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+class Compiled:
+    """One model's built loops: ``forward``, ``backward`` and ``tangent`` over numpy float64 arrays (the
+    layout of ``loops.c``), with the rows of a batch spread over threads (ctypes releases the GIL)."""
+
+    def __init__(self, path: Path, n_state: int, n_param: int, n_out: int):
+        self.path = path
+        self.S, self.P, self.O = n_state, n_param, n_out
+        lib = ctypes.CDLL(str(path))
+        L, V = ctypes.c_long, ctypes.c_void_p
+        self._fns = {}
+        for name, n_before, n_after in (("forward", 4, 2), ("backward", 6, 3), ("tangent", 5, 2)):
+            fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
+            fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
+            fn.restype = None
+            self._fns[name] = fn
+
+    def _run(self, name: str, B: int, T: int, arrays_before: list, nst: int, tableau: list, sub: int,
+             arrays_after: list, NT: int) -> None:
+        for a in arrays_before + tableau + arrays_after:
+            assert a.dtype == np.float64 and a.flags.c_contiguous, name
+        fn = self._fns[name]
+        ptrs_before = [_pointer(a) for a in arrays_before]
+        ptrs_tab = [_pointer(a) for a in tableau]
+        ptrs_after = [_pointer(a) for a in arrays_after]
+
+        def rows(b0, b1):
+            fn(b0, b1, T, NT, *ptrs_before, nst, *ptrs_tab, sub, *ptrs_after)
+
+        n = min(row_threads(), B, max(1, B * T * sub // _MIN_ROW_WORK))
+        if threading.current_thread() is not threading.main_thread():
+            n = 1  # a call from a worker thread (discovery's candidates side by side) keeps its rows to itself
+        if n <= 1:
+            rows(0, B)
+            return
+        global _POOL
+        with _LOCK:
+            if _POOL is None or _POOL._max_workers < n - 1:
+                _POOL = ThreadPoolExecutor(max_workers=n - 1)
+            pool = _POOL
+        cuts = np.linspace(0, B, n + 1).round().astype(int)
+        others = [pool.submit(rows, int(cuts[i]), int(cuts[i + 1])) for i in range(1, n)]
+        rows(0, int(cuts[1]))  # the first share in this thread, the others in the pool's
+        for f in others:
+            f.result()
+
+    def forward(self, U, h, th, s0, c, A, bw, sub, states, y):
+        """States at the sample times and outputs: U (B,T,3), h (B,T-1), th (B,NT), s0 (B,S)."""
+        self._run("forward", U.shape[0], U.shape[1], [U, h, th, s0], c.shape[0], [c, A, bw], sub, [states, y],
+                  th.shape[1])
+
+    def backward(self, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
+        """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy and dL/d(states)."""
+        self._run("backward", U.shape[0], U.shape[1], [U, h, th, states, gy, gS], c.shape[0], [c, A, bw], sub,
+                  [gth, gU, gs0], th.shape[1])
+
+    def tangent(self, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
+        """Outputs y (B,T,O) and their derivatives dy (B,T,O,P) w.r.t. every parameter, given ds0 (B,S,P)."""
+        self._run("tangent", U.shape[0], U.shape[1], [U, h, th, s0, ds0], c.shape[0], [c, A, bw], sub, [y, dy],
+                  th.shape[1])
