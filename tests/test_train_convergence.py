@@ -141,6 +141,11 @@ def test_a_resumed_run_equals_an_uninterrupted_one(loops, tmp_path):
         assert resumed["nominal"][key] == straight["nominal"][key]
     assert resumed["nominal"]["identify"]["x"] == straight["nominal"]["identify"]["x"]
     assert straight["val"]["rmse"] != straight["nominal"]["val"]["rmse"]  # training moved the weights
+    # the resumed run reports its whole training time: the first two epochs' (from the checkpoint) and its own
+    half = json.loads((tmp_path / "h" / "metrics.json").read_text())["info"]["train_time_s"]
+    info = resumed["info"]
+    assert "train_time_this_run_s" not in straight["info"] and 0 < info["train_time_this_run_s"] < info["train_time_s"]
+    assert info["train_time_s"] - info["train_time_this_run_s"] == pytest.approx(half, rel=0.5)
 
 
 def test_the_cosine_schedule_decays_every_rate_to_its_final_share(loops, tmp_path):

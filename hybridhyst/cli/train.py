@@ -114,13 +114,24 @@ def _monitor(dm: RecordDataModule) -> str:
 class StartModel(Callback):
     """The weights a run starts from, their validation RMSE and the starting nominal's errors, saved in every
     checkpoint (Lightning's callback state), so that a run resumed with ``ckpt_path`` keeps its original start:
-    the floor of ``evaluate_best`` and metrics.json's ``nominal`` block. Nothing is saved before ``capture``
-    (a run resumed from a checkpoint without this state has neither)."""
+    the floor of ``evaluate_best`` and metrics.json's ``nominal`` block, and the seconds trained up to the
+    checkpoint, so that a resumed run (an L-BFGS stage after Adam) reports its whole training time. Nothing is
+    saved before ``capture`` (a run resumed from a checkpoint without this state has neither)."""
 
     def __init__(self):
         self.weights: dict | None = None  # the module's state dict before the first epoch (a deep copy)
         self.start: dict | None = None    # {"split": the validation split, "rmse": the starting model's RMSE}
         self.nominal: dict | None = None  # {"source", "identify", "train", "val", "test"}; None without a nominal
+        self.trained_before = 0.0         # seconds trained by the runs this one continues (from the checkpoint)
+        self._since: float | None = None  # when this process started training
+
+    def on_train_start(self, trainer, pl_module) -> None:
+        if self._since is None:  # the first stage: a later one (L-BFGS) is the same run's training
+            self._since = time.perf_counter()
+
+    def trained_s(self) -> float:
+        """Seconds trained so far, the runs this one continues included."""
+        return self.trained_before + (time.perf_counter() - self._since if self._since is not None else 0.0)
 
     def capture(self, module, dm: RecordDataModule, source: str | None) -> None:
         """Record ``module``'s weights and errors now (before ``trainer.fit``), on whole records."""
@@ -141,10 +152,11 @@ class StartModel(Callback):
     def state_dict(self) -> dict:
         if self.weights is None:
             return {}
-        return {"weights": self.weights, "start": self.start, "nominal": self.nominal}
+        return {"weights": self.weights, "start": self.start, "nominal": self.nominal, "train_s": self.trained_s()}
 
     def load_state_dict(self, state: dict) -> None:
         self.weights, self.start, self.nominal = state["weights"], state["start"], state.get("nominal")
+        self.trained_before = float(state.get("train_s", 0.0))
 
 
 def run(cfg: DictConfig) -> dict:
@@ -294,7 +306,9 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
                             what="the trained model's simulation", time_unit=dm.units.get("t", "s"),
                             warn=lambda text: say(text, error=True))
     metrics = {s: split_metrics(p) for s, p in preds.items()}
-    meta.update(n_parameters=module.n_parameters(), train_time_s=train_time, epochs=epochs,
+    if starting.trained_before:  # a resumed run: the whole training, and this run's part of it
+        meta["train_time_this_run_s"] = train_time
+    meta.update(n_parameters=module.n_parameters(), train_time_s=starting.trained_before + train_time, epochs=epochs,
                 lbfgs_steps_done=int(trainer.current_epoch) if lbfgs is not None else 0,
                 train_windows=len(dm.train_dataloader().dataset),
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},
