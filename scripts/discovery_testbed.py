@@ -44,6 +44,15 @@ def code_version() -> str:
     return f"commit {head}" + (" with uncommitted changes in hybridhyst/" if dirty else "")
 
 
+def _earlier_cost(path) -> dict[str, float]:
+    """Seconds per case of the run this one replaces (its ``--json`` file, if there is one): the workers take the
+    costliest cases first. Only the wall time depends on it."""
+    try:
+        return {r["name"]: float(r["wall_s"]) for r in json.loads(Path(path).read_text())["rows"]}
+    except (TypeError, OSError, ValueError, KeyError):
+        return {}
+
+
 def main(argv=None) -> list[dict]:
     from hybridhyst.discover.validation import VALIDATION
     from hybridhyst.testbed.cases import CASE_BY_NAME, CASES, FAST_CASES
@@ -69,7 +78,7 @@ def main(argv=None) -> list[dict]:
     start = time.perf_counter()
     options = {**({"validation": args.validation} if args.validation != "records" else {}),
                **({"start_states": False} if args.no_start_states else {})} or None
-    rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options)
+    rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options, cost=_earlier_cost(args.json))
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])
     command = f"PYTHONPATH=. python scripts/discovery_testbed.py {args_text}".strip()

@@ -299,3 +299,23 @@ def test_fast_path_takes_and_returns_cuda_tensors_with_the_cpu_numbers(float64):
     assert gpu.device.type == "cuda" and torch.allclose(gpu.cpu(), cpu, rtol=1e-12, atol=0)
     for a, b in zip(g_cpu, g_gpu):
         assert torch.allclose(b.cpu(), a, rtol=1e-10, atol=0)
+
+
+def test_the_compiled_loops_refuse_arrays_of_another_shape_or_type(float64):
+    """The C loops index raw memory: a wrong shape or dtype is a ValueError before any memory is touched."""
+    import numpy as np
+
+    from hybridhyst.simulate.fast.function import _tableau, compiled
+
+    model = COMPOSITIONS["bouc_wen_classic"]().double()
+    eq, module = compiled(model)
+    B, T, S, P = 2, 10, len(eq.state), len(eq.params)
+    c, A, bw = _tableau("rk4")
+    ok = dict(U=np.zeros((B, T, 3)), h=np.full((B, T - 1), 1e-3), th=np.ones((B, P)), s0=np.zeros((B, S)),
+              states=np.empty((B, T, S)), y=np.empty((B, T, 1)))
+    module.forward(ok["U"], ok["h"], ok["th"], ok["s0"], c, A, bw, 1, ok["states"], ok["y"])
+    for key, bad in (("h", np.zeros((B, T))), ("th", np.ones((B, P - 1))), ("y", np.empty((B, T, 2))),
+                     ("U", np.zeros((B, T, 3), dtype=np.float32)), ("U", np.zeros((B, 3, T)).transpose(0, 2, 1))):
+        args = {**ok, key: bad}
+        with pytest.raises(ValueError, match=f"{key} must be|th has"):
+            module.forward(args["U"], args["h"], args["th"], args["s0"], c, A, bw, 1, args["states"], args["y"])

@@ -144,10 +144,12 @@ def _run_named(name: str, options: dict | None = None) -> dict:
     return run_case(CASE_BY_NAME[name], options)
 
 
-def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options: dict | None = None) -> list[dict]:
+def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options: dict | None = None,
+            cost: dict[str, float] | None = None) -> list[dict]:
     """Run ``cases`` (from ``CASES``) on ``jobs`` worker processes (torch float64, one thread each); rows in
     the order of ``cases``. ``jobs`` ≤ 1 runs in this process (any cases, registered or not). ``options``:
-    discover() keywords, the same for every case."""
+    discover() keywords, the same for every case. ``cost``: expected seconds per case name (an earlier run's);
+    the workers take the costliest first, so that a long case does not start last (the rows keep their order)."""
     cases = list(cases)
     if jobs <= 1:
         _init_worker()
@@ -161,7 +163,8 @@ def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options
         raise ValueError(f"run_bed with jobs > 1 takes cases from hybridhyst.testbed.cases.CASES; not there: {unknown}")
     out: dict[str, dict] = {}
     with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker) as pool:
-        futures = {pool.submit(_run_named, c.name, options): c.name for c in cases}
+        order = sorted(cases, key=lambda c: -(cost or {}).get(c.name, 0.0))  # stable: unknown costs keep their order
+        futures = {pool.submit(_run_named, c.name, options): c.name for c in order}
         for fut in _as_completed(futures):
             row = fut.result()
             out[row["name"]] = row

@@ -128,8 +128,30 @@ _MIN_ROW_WORK = int(os.environ.get("HYBRIDHYST_FAST_MIN_WORK", "20000"))  # samp
 # one thread runs the batch (handing work to a thread costs tens of µs)
 
 
+def _after_fork() -> None:
+    """A forked child (a process pool's worker) has none of its parent's threads: a fresh pool and lock."""
+    global _POOL, _LOCK
+    _POOL, _LOCK = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
+
+
 def _pointer(a: np.ndarray) -> int:
     return a.ctypes.data
+
+
+def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_out: int) -> None:
+    """The loops index raw memory: every array float64, C-contiguous and of the shape they assume."""
+    shapes = {"U": (B, T, 3), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
+              "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, 3), "gs0": (B, S), "ds0": (B, S, P),
+              "dy": (B, T, n_out, P)}
+    for key, a in arrays.items():
+        if a.dtype != np.float64 or not a.flags.c_contiguous or a.shape != shapes.get(key, a.shape):
+            raise ValueError(f"compiled {name}: {key} must be a C-contiguous float64 array of shape "
+                             f"{shapes.get(key)}, got {a.dtype} {a.shape}")
+    if NT < P:
+        raise ValueError(f"compiled {name}: th has {NT} columns, fewer than the model's {P} parameters")
 
 
 class Compiled:
@@ -148,10 +170,14 @@ class Compiled:
             fn.restype = None
             self._fns[name] = fn
 
-    def _run(self, name: str, B: int, T: int, arrays_before: list, nst: int, tableau: list, sub: int,
-             arrays_after: list, NT: int) -> None:
-        for a in arrays_before + tableau + arrays_after:
-            assert a.dtype == np.float64 and a.flags.c_contiguous, name
+    def _run(self, name: str, B: int, T: int, arrays_before: dict, nst: int, tableau: list, sub: int,
+             arrays_after: dict, NT: int) -> None:
+        _check(name, {**arrays_before, **arrays_after}, B, T, NT, self.S, self.P, self.O)
+        c, A, bw = tableau
+        if not (c.shape == bw.shape == (nst,) and A.shape == (nst, nst)) or int(sub) < 1:
+            raise ValueError(f"compiled {name}: a tableau of {nst} stages and sub >= 1, got {A.shape}, sub {sub}")
+        _check(name, {"c": c, "A": A, "bw": bw}, B, T, NT, self.S, self.P, self.O)
+        arrays_before, arrays_after = list(arrays_before.values()), list(arrays_after.values())
         fn = self._fns[name]
         ptrs_before = [_pointer(a) for a in arrays_before]
         ptrs_tab = [_pointer(a) for a in tableau]
@@ -179,15 +205,15 @@ class Compiled:
 
     def forward(self, U, h, th, s0, c, A, bw, sub, states, y):
         """States at the sample times and outputs: U (B,T,3), h (B,T-1), th (B,NT), s0 (B,S)."""
-        self._run("forward", U.shape[0], U.shape[1], [U, h, th, s0], c.shape[0], [c, A, bw], sub, [states, y],
-                  th.shape[1])
+        self._run("forward", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0}, c.shape[0], [c, A, bw],
+                  sub, {"states": states, "y": y}, th.shape[1])
 
     def backward(self, U, h, th, states, gy, gS, c, A, bw, sub, gth, gU, gs0):
         """Exact adjoint of ``forward``: accumulates dL/dth, dL/dU, dL/ds0 from dL/dy and dL/d(states)."""
-        self._run("backward", U.shape[0], U.shape[1], [U, h, th, states, gy, gS], c.shape[0], [c, A, bw], sub,
-                  [gth, gU, gs0], th.shape[1])
+        self._run("backward", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "states": states, "gy": gy, "gS": gS},
+                  c.shape[0], [c, A, bw], sub, {"gth": gth, "gU": gU, "gs0": gs0}, th.shape[1])
 
     def tangent(self, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
         """Outputs y (B,T,O) and their derivatives dy (B,T,O,P) w.r.t. every parameter, given ds0 (B,S,P)."""
-        self._run("tangent", U.shape[0], U.shape[1], [U, h, th, s0, ds0], c.shape[0], [c, A, bw], sub, [y, dy],
-                  th.shape[1])
+        self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0}, c.shape[0],
+                  [c, A, bw], sub, {"y": y, "dy": dy}, th.shape[1])
