@@ -15,8 +15,6 @@
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
 import subprocess
@@ -29,8 +27,7 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-README = ROOT / "experiments" / "performance" / "README.md"
-BEGIN, END = "<!-- bench_build:begin -->", "<!-- bench_build:end -->"
+sys.path.insert(0, str(ROOT / "scripts"))  # bench_simulate
 
 
 def every_effect(structure: str):
@@ -157,26 +154,14 @@ def markdown(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--main-job", action="store_true")
-    ap.add_argument("--json", type=Path)
-    ap.add_argument("--write-readme", action="store_true")
+def main(argv=None) -> dict:
+    from bench_simulate import bench_parser, emit
+
+    ap = bench_parser(__doc__, "bench_build", "a smoke version")
+    ap.add_argument("--main-job", action="store_true", help="also the main job, cold then warm")
     args = ap.parse_args(argv)
     res = run(args.quick, args.main_job)
-    text = markdown(res)
-    print(text)
-    if args.json:
-        args.json.write_text(json.dumps(res, indent=1))
-    if args.write_readme:
-        readme = README.read_text()
-        block = f"{BEGIN}\n{text}\n{END}"
-        if BEGIN in readme:
-            readme = readme[: readme.index(BEGIN)] + block + readme[readme.index(END) + len(END):]
-        else:
-            readme += "\n" + block + "\n"
-        README.write_text(readme)
+    return emit(args, "bench_build", res, markdown(res))
 
 
 if __name__ == "__main__":

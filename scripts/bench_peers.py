@@ -19,8 +19,6 @@ to hybridhyst's. ``--quick`` is a smoke version (short record, few repeats).
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import statistics
 import sys
@@ -33,8 +31,7 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-README = ROOT / "experiments" / "performance" / "README.md"
-BEGIN, END = "<!-- bench_peers:begin -->", "<!-- bench_peers:end -->"
+sys.path.insert(0, str(ROOT / "scripts"))  # bench_simulate
 FS = 750.0
 VALUES = ("m", "c", "k", "A", "beta", "gamma")  # the six values every peer differentiates
 
@@ -266,25 +263,13 @@ def markdown(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", type=Path)
-    ap.add_argument("--write-readme", action="store_true")
+def main(argv=None) -> dict:
+    from bench_simulate import bench_parser, emit
+
+    ap = bench_parser(__doc__, "bench_peers", "a smoke version")
     args = ap.parse_args(argv)
     res = run(args.quick)
-    text = markdown(res)
-    print(text)
-    if args.json:
-        args.json.write_text(json.dumps(res, indent=1))
-    if args.write_readme:
-        readme = README.read_text()
-        block = f"{BEGIN}\n{text}\n{END}"
-        if BEGIN in readme:
-            readme = readme[: readme.index(BEGIN)] + block + readme[readme.index(END) + len(END):]
-        else:
-            readme += "\n" + block + "\n"
-        README.write_text(readme)
+    return emit(args, "bench_peers", res, markdown(res))
 
 
 if __name__ == "__main__":

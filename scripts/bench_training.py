@@ -15,8 +15,6 @@ available the same runs are repeated with ``trainer=gpu`` (GPU columns; "not mea
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import statistics
 import sys
@@ -28,8 +26,7 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-README = ROOT / "experiments" / "performance" / "README.md"
-BEGIN, END = "<!-- bench_training:begin -->", "<!-- bench_training:end -->"
+sys.path.insert(0, str(ROOT / "scripts"))  # bench_simulate
 COMMON = ["experiment=boucwen_baselines", "datamodule.window=256", "datamodule.warmup=64", "datamodule.batch_size=64",
           "nominal_init.method=none", "logger=none", "progress=false", "trainer.check_val_every_n_epoch=1000",
           "trainer.limit_val_batches=0"]
@@ -113,25 +110,13 @@ def markdown(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", type=Path)
-    ap.add_argument("--write-readme", action="store_true")
+def main(argv=None) -> dict:
+    from bench_simulate import bench_parser, emit
+
+    ap = bench_parser(__doc__, "bench_training", "a smoke version")
     args = ap.parse_args(argv)
     res = run(args.quick)
-    text = markdown(res)
-    print(text)
-    if args.json:
-        args.json.write_text(json.dumps(res, indent=1))
-    if args.write_readme:
-        readme = README.read_text()
-        block = f"{BEGIN}\n{text}\n{END}"
-        if BEGIN in readme:
-            readme = readme[: readme.index(BEGIN)] + block + readme[readme.index(END) + len(END):]
-        else:
-            readme += "\n" + block + "\n"
-        README.write_text(readme)
+    return emit(args, "bench_training", res, markdown(res))
 
 
 if __name__ == "__main__":
