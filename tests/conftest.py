@@ -1,6 +1,10 @@
 import pytest
 import torch
 
+# The tests run in several processes on few cores (pytest-xdist): torch's intra-op threads would only wait for
+# each other's (the apps, identify and discover set one thread each themselves; hybridhyst.settings).
+torch.set_num_threads(1)
+
 
 @pytest.fixture
 def float64():

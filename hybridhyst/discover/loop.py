@@ -28,6 +28,7 @@ from ..identify import identify
 from ..identify.space import outside_domain
 from ..physics.models import conditions_used
 from ..progress import progress as progress_bar
+from ..settings import intra_op_threads
 from ..simulate.fast import prebuild_models
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
@@ -96,7 +97,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
              validation: str = "records", start_states: bool = True, progress: bool = True,
-             workers: int = 1) -> DiscoveryResult:
+             workers: int = 1, torch_threads: int | None = 1) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -141,12 +142,21 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         no noise level is known.
     workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
         fit's rows then run in its own thread). The fits and the result are the same for any number.
+    torch_threads : torch intra-op threads during the run (restored after; None leaves them), as ``identify``.
 
     Raises
     ------
     ValueError
         Unknown candidate names, a split leaving no training records, records too short to identify.
     """
+    settings = {k: v for k, v in locals().items() if k not in ("records", "nominal", "torch_threads")}
+    with intra_op_threads(torch_threads):
+        return _discover(records, nominal, **settings)
+
+
+def _discover(records, nominal, candidates, split, *, conditions, label_conditions, margin, criterion, max_steps,
+              top, lm_steps, box_factor, noise_sd, fit_nominal, identify_options, backend, method, substeps, refit,
+              leftover, validation, start_states, progress, workers) -> DiscoveryResult:
     start = time.perf_counter()
     if criterion not in ("bic", "aic"):
         raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")

@@ -20,6 +20,7 @@ from torch import nn
 from ..data.batch import record_batches
 from ..data.decimate import decimate_all
 from ..data.records import Record, RecordSet
+from ..settings import intra_op_threads
 from ..simulate import jacobian_covers, resolved_substeps, simulate, simulate_jacobian
 from ..simulate.api import dual_level
 from ..simulate.inputs import with_rates
@@ -327,13 +328,8 @@ def identify(model: nn.Module, records, *, method: str = "cma", pop: int | None 
         When the best fit is not finite, naming the parameters whose values drove the divergence.
     """
     settings = {k: v for k, v in locals().items() if k not in ("model", "records", "torch_threads")}
-    old_threads = torch.get_num_threads()
-    if torch_threads:
-        torch.set_num_threads(int(torch_threads))
-    try:
+    with intra_op_threads(torch_threads):
         return _identify(model, records, **settings)
-    finally:
-        torch.set_num_threads(old_threads)
 
 
 def _problem(space, records, input_channels, ode_method, substeps, backend, decimate: int = 1) -> RecordsProblem:
