@@ -1,9 +1,12 @@
+import os
+
 import pytest
 import torch
 
 # The tests run in several processes on few cores (pytest-xdist): torch's intra-op threads would only wait for
 # each other's (the apps, identify and discover set one thread each themselves; hybridhyst.settings).
 torch.set_num_threads(1)
+os.environ.setdefault("HYBRIDHYST_FAST_THREADS", "1")  # the compiled loops' row threads likewise
 
 
 @pytest.fixture
