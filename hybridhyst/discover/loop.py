@@ -395,8 +395,11 @@ def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int
 
     if workers <= 1 or len(cands) < 2:
         return [(cand, one(cand)) for cand in progress_bar(cands, "rank candidates", enabled=progress)]
-    with ThreadPoolExecutor(max_workers=workers) as pool:
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
         fits = list(progress_bar(pool.map(one, cands), "rank candidates", total=len(cands), enabled=progress))
+    finally:  # an interruption (SIGTERM, Ctrl-C) waits only for the fits already running
+        pool.shutdown(wait=True, cancel_futures=True)
     return list(zip(cands, fits))
 
 
