@@ -6,6 +6,8 @@ that the simulator resolves a fitted model at the sample rate of the data.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import torch
@@ -15,7 +17,7 @@ from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
 from ..simulate import resolved_substeps
 
-__all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "sse_at"]
+__all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "side_by_side", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
 
@@ -29,6 +31,22 @@ class Fit:
     k: int
     coords: dict = field(default_factory=dict)
     substeps: int = 1
+
+
+def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | None = None) -> list:
+    """``[fn(item) for item in items]`` with ``workers`` items at a time, each in a thread of its own (the fits'
+    compiled loops release the GIL; each fit is deterministic, so the results are the same for any number).
+    ``bar(iterable, total)`` wraps the results as they come (a progress bar). An interruption (SIGTERM, Ctrl-C)
+    waits only for the items already running."""
+    items = list(items)
+    if workers <= 1 or len(items) < 2:
+        return [fn(item) for item in (bar(items, len(items)) if bar else items)]
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        results = pool.map(fn, items)
+        return list(bar(results, len(items)) if bar else results)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def at(sim: dict, fit: Fit) -> dict:

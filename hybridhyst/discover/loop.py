@@ -17,7 +17,6 @@ import copy
 import math
 import time
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import torch
@@ -33,7 +32,7 @@ from ..simulate.fast import prebuild_models
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
 from .fitting import at as _at
-from .fitting import fit_candidate, polish, sse_at
+from .fitting import fit_candidate, polish, side_by_side, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .selection import information_criterion, simplify
 from .trends import MIN_LEVELS, fit_trends
@@ -195,7 +194,8 @@ def _discover(records, nominal, candidates, split, *, conditions, label_conditio
         return preds, {s: {**record_metrics(splits[s], preds[s], label_conditions),
                            "substeps": runs[s][1]} for s in splits}
 
-    opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion}
+    opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion,
+            "workers": int(workers)}
     outside = outside_domain(model, train)
     if outside:
         raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "
@@ -393,13 +393,8 @@ def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int
         except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
             return None
 
-    if workers <= 1 or len(cands) < 2:
-        return [(cand, one(cand)) for cand in progress_bar(cands, "rank candidates", enabled=progress)]
-    pool = ThreadPoolExecutor(max_workers=workers)
-    try:
-        fits = list(progress_bar(pool.map(one, cands), "rank candidates", total=len(cands), enabled=progress))
-    finally:  # an interruption (SIGTERM, Ctrl-C) waits only for the fits already running
-        pool.shutdown(wait=True, cancel_futures=True)
+    fits = side_by_side(one, cands, workers,
+                        lambda items, n: progress_bar(items, "rank candidates", total=n, enabled=progress))
     return list(zip(cands, fits))
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from .candidates import Candidate, effect_candidates
-from .fitting import Fit, at, fit_candidate, polish
+from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .validation import parts, within
 
 __all__ = ["REPLACEMENTS", "combined", "information_criterion", "simplify"]
@@ -81,23 +81,30 @@ def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, p
     changes = []
     while len(fit.model.effects) > 1:
         best = None
-        keys = list(fit.model.effects)
         only_rivals = settled and not changes
-        for key in progress(keys, "simplify") if progress else keys:
-            for by, reduced, cand, how in _alternatives(fit, key, scales, rivals, only_rivals):
-                try:
-                    f = (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
-                         else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
-                except (ValueError, RuntimeError):
-                    continue
-                if f is None:
-                    continue
-                f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
-                if not f_ic < ic or (best is not None and f_ic >= best[2]):
-                    continue
-                f_val = score(f.model, at(sim, f))
-                if within(f_val, val_rmse, opts["margin"] / 2):
-                    best = (key, by, f_ic, f_val, f, how)
+        alternatives = [(key, *alt) for key in fit.model.effects
+                        for alt in _alternatives(fit, key, scales, rivals, only_rivals)]
+
+        def refit(alt, fit=fit):
+            _, _, reduced, cand, _ = alt
+            try:
+                return (polish(reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]) if cand is None
+                        else fit_candidate(cand, reduced, train, at(sim, fit), opts["lm_steps"], opts["box_factor"]))
+            except (ValueError, RuntimeError):
+                return None
+
+        # every alternative refitted (side by side), then judged in order: the same choice for any number of workers
+        refits = side_by_side(refit, alternatives, int(opts.get("workers", 1)),
+                              (lambda items, n: progress(items, "simplify")) if progress else None)
+        for (key, by, _, _, how), f in zip(alternatives, refits):
+            if f is None:
+                continue
+            f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
+            if not f_ic < ic or (best is not None and f_ic >= best[2]):
+                continue
+            f_val = score(f.model, at(sim, f))
+            if within(f_val, val_rmse, opts["margin"] / 2):
+                best = (key, by, f_ic, f_val, f, how)
         if best is None:
             break
         key, by, ic, new_val, f, how = best
