@@ -106,7 +106,7 @@ def side_by_side(makers: dict) -> dict:
     return {"models": len(built), "together_s": together}
 
 
-def main_job() -> dict:
+def run_main_job() -> dict:
     """``hybridhyst-discover`` on an empty cache, then warm, back to back."""
     out = {}
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as runs:
@@ -120,7 +120,7 @@ def main_job() -> dict:
     return out
 
 
-def run(quick: bool, with_main_job: bool) -> dict:
+def run(quick: bool, main_job: bool = False) -> dict:
     torch.set_default_dtype(torch.float64)
     makers = models(quick)
     old = os.environ.get("HYBRIDHYST_CACHE")
@@ -132,8 +132,8 @@ def run(quick: bool, with_main_job: bool) -> dict:
         os.environ.pop("HYBRIDHYST_CACHE", None)
     else:
         os.environ["HYBRIDHYST_CACHE"] = old
-    if with_main_job:
-        res["main_job"] = main_job()
+    if main_job:
+        res["main_job"] = run_main_job()
     return res
 
 
@@ -155,13 +155,9 @@ def markdown(res: dict) -> str:
 
 
 def main(argv=None) -> dict:
-    from bench_simulate import bench_parser, emit
+    from bench_simulate import simple_main
 
-    ap = bench_parser(__doc__, "bench_build", "a smoke version")
-    ap.add_argument("--main-job", action="store_true", help="also the main job, cold then warm")
-    args = ap.parse_args(argv)
-    res = run(args.quick, args.main_job)
-    return emit(args, "bench_build", res, markdown(res))
+    return simple_main(argv, __doc__, "bench_build", run, markdown, flags=("main_job",))
 
 
 if __name__ == "__main__":

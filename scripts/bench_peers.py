@@ -20,7 +20,6 @@ to hybridhyst's. ``--quick`` is a smoke version (short record, few repeats).
 from __future__ import annotations
 
 import os
-import statistics
 import sys
 import tempfile
 import time
@@ -158,12 +157,10 @@ def jax_program(u: np.ndarray, y_ref: np.ndarray):
 
 
 def timed(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    """Median seconds of ``repeats`` calls (``bench_simulate.timed``)."""
+    from bench_simulate import timed as median_time
+
+    return median_time(fn, repeats)[0]
 
 
 def run(quick: bool) -> dict:
@@ -264,12 +261,9 @@ def markdown(res: dict) -> str:
 
 
 def main(argv=None) -> dict:
-    from bench_simulate import bench_parser, emit
+    from bench_simulate import simple_main
 
-    ap = bench_parser(__doc__, "bench_peers", "a smoke version")
-    args = ap.parse_args(argv)
-    res = run(args.quick)
-    return emit(args, "bench_peers", res, markdown(res))
+    return simple_main(argv, __doc__, "bench_peers", run, markdown)
 
 
 if __name__ == "__main__":

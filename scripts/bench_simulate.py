@@ -322,6 +322,17 @@ def run(args: argparse.Namespace) -> dict:
             "scaling": scaling_summary(rows), "finished_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
 
 
+def simple_main(argv, doc: str, section: str, run, markdown, flags: tuple[str, ...] = ()) -> dict:
+    """The whole ``main`` of a benchmark whose ``run`` takes ``--quick`` (and each of ``flags``, a store-true option
+    named like the keyword it sets) and whose ``markdown`` renders its result."""
+    ap = bench_parser(doc, section, "a smoke version")
+    for flag in flags:
+        ap.add_argument(f"--{flag.replace('_', '-')}", action="store_true")
+    args = ap.parse_args(argv)
+    result = run(args.quick, **{flag: getattr(args, flag) for flag in flags})
+    return emit(args, section, result, markdown(result))
+
+
 def emit(args, section: str, result: dict, markdown: str) -> dict:
     """Write ``--json`` and the ``--write-readme`` section as asked, print the Markdown; shared by the benches."""
     if args.json:

@@ -111,12 +111,9 @@ def markdown(res: dict) -> str:
 
 
 def main(argv=None) -> dict:
-    from bench_simulate import bench_parser, emit
+    from bench_simulate import simple_main
 
-    ap = bench_parser(__doc__, "bench_training", "a smoke version")
-    args = ap.parse_args(argv)
-    res = run(args.quick)
-    return emit(args, "bench_training", res, markdown(res))
+    return simple_main(argv, __doc__, "bench_training", run, markdown)
 
 
 if __name__ == "__main__":

@@ -136,11 +136,10 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     B, T = U.shape[0], U.shape[1]
     c, A, bw = _tableau(method)
 
-    numpy = _numpy
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1)
     y = np.empty((B, T, model.output_dim))
     dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))
-    module.tangent(numpy(U), numpy(h), numpy(_theta(eq, P, model, B, U)), numpy(state0), numpy(dstate0), c, A, bw,
-                   int(substeps), y, dy)
+    module.tangent(_numpy(U), _numpy(h), _numpy(_theta(eq, P, model, B, U)), _numpy(state0), _numpy(dstate0),
+                   c, A, bw, int(substeps), y, dy)
     return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
             torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
