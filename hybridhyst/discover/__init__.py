@@ -2,7 +2,8 @@
 
 from .candidates import Candidate, Scales, condition_candidates, effect_candidates, library_candidates
 from .diagnose import diagnose, features, structure_explained
-from .loop import DiscoveryResult, discover, information_criterion
+from .loop import DiscoveryResult, discover
+from .rule import information_criterion
 
 __all__ = ["Candidate", "DiscoveryResult", "Scales", "condition_candidates", "diagnose", "discover",
            "effect_candidates", "features", "information_criterion", "library_candidates", "structure_explained"]

@@ -1,14 +1,24 @@
 """The closed loop: fit the nominal, diagnose the residual, rank candidate effects, add the best, refit,
-accept on validation error and an information criterion, repeat; then say what is left.
+accept by one rule, repeat; then say what is left.
 
-Ranking: the model augmented by each candidate is refitted with every coordinate free (the candidate's few
-starting values as restarts of one batched Levenberg–Marquardt, the other coordinates from their fitted
-values, first re-balanced against each start; LM continued until converged), and the share of the training
-residual's sum of squares that disappears is the candidate's evidence. Of the best ``top`` candidates the one
-with the lowest validation RMSE is chosen (among those within ``margin`` of it, the one with the lowest
-information criterion: validation cannot tell them apart, so the more parsimonious wins) and accepted if its
-validation RMSE falls by more than ``margin`` (relative) and the information criterion (BIC by default)
-improves.
+The loop is a ``Loop`` that holds its state (the current fit and how the rule sees it, the steps taken,
+rejected and undone) and runs one method per phase, in this order (``discover``):
+
+1. ``nominal``: identify the nominal on the training records and converge its fit (the "before");
+2. ``trends("before effects")``: every constant parameter as a function of each condition with enough levels;
+3. ``effects``: the greedy steps. Each candidate (a library effect, a one-parameter trend for a condition
+   with few levels, a start state) is refitted with every coordinate free (its starting values as restarts of
+   one batched Levenberg–Marquardt, the other coordinates from their fitted values, first re-balanced against
+   each start; LM continued until converged), ranked by the share of the training residual it removes; of the
+   best ``top`` the rule picks one on validation error and information criterion, and accepts it or stops;
+4. ``removals`` after every accepted change: each effect removed, or replaced by a special case (``selection``);
+5. ``swaps``: each added effect against the rivals it beat when it was added, on the final model;
+6. ``trends("after effects")``: the added effects' own parameters as functions of the conditions;
+7. ``refit``: the chosen structure (and the nominal) refitted on training and validation records;
+8. ``leftover``: how much structure the residual still holds.
+
+Every change is judged by ``rule.Acceptance``; the result is typed (``Step``, ``Change``) and turned into the
+``discovery.json`` content only in ``DiscoveryResult.report``.
 """
 
 from __future__ import annotations
@@ -17,40 +27,28 @@ import copy
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-
-import torch
+from dataclasses import dataclass
 
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
 from ..identify.space import outside_domain
-from ..physics.models import conditions_used
+from ..physics.models import DrivenOscillator, conditions_used
 from ..progress import progress as progress_bar
 from ..settings import intra_op_threads
 from ..simulate.fast import prebuild_models
 from .candidates import Scales, library_candidates
 from .diagnose import diagnose
+from .fitting import Fit, fit_candidate, polish, side_by_side, sse_at
 from .fitting import at as _at
-from .fitting import fit_candidate, polish, side_by_side, sse_at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
-from .selection import information_criterion, simplify
+from .result import Change, DiscoveryResult, Step
+from .rule import Acceptance, Judged, information_criterion
+from .selection import simplify
 from .trends import MIN_LEVELS, fit_trends
-from .validation import Validation, improves, parts, record_metrics, rmse_on, simulated, within
+from .validation import Validation, parts, record_metrics, rmse_on, simulated
 
-__all__ = ["DiscoveryResult", "discover", "information_criterion"]
-
-
-@dataclass
-class DiscoveryResult:
-    """What ``discover`` found. ``model``: the final model; ``report``: the ``discovery.json`` content;
-    ``predictions``: ``{"before"|"after": {split: [arrays per record]}}``; ``splits``: the record sets."""
-
-    model: torch.nn.Module
-    report: dict
-    predictions: dict = field(default_factory=dict)
-    splits: dict = field(default_factory=dict)
-    initial_model: torch.nn.Module | None = None
+__all__ = ["Change", "DiscoveryResult", "Step", "discover", "information_criterion"]
 
 
 def _as_records(records) -> list[Record]:
@@ -87,6 +85,49 @@ def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
 def _parameters(model) -> dict:
     return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
             for e, params in model.parameter_table().items() for p, info in params.items()}
+
+
+@dataclass(frozen=True)
+class Options:
+    """``discover``'s settings (its docstring says what each means)."""
+
+    candidates: Sequence[str] | None = None
+    split: Mapping | None = None
+    conditions: bool | Sequence[str] = True
+    label_conditions: Sequence[str] | None = None
+    margin: float = 0.02
+    criterion: str = "bic"
+    max_steps: int = 4
+    top: int = 3
+    lm_steps: int = 25
+    box_factor: float = 10.0
+    noise_sd: float | None = None
+    fit_nominal: bool = True
+    identify_options: Mapping | None = None
+    backend: str = "fast"
+    method: str = "rk4"
+    substeps: int = 1
+    refit: bool = True
+    leftover: str = "static"
+    validation: str = "records"
+    start_states: bool = True
+    progress: bool = True
+    workers: int = 1
+
+    def check(self) -> None:
+        from ..physics.effects import EFFECTS
+
+        if self.criterion not in ("bic", "aic"):
+            raise ValueError(f"unknown information criterion {self.criterion!r}; choose 'bic' or 'aic'")
+        if self.leftover not in LEFTOVER:
+            raise ValueError(f"unknown leftover measure {self.leftover!r}; choose one of {list(LEFTOVER)}")
+        unknown = [c for c in (self.candidates or []) if c not in EFFECTS]
+        if unknown:
+            raise ValueError(f"unknown candidate effect(s) {unknown}; the library has {sorted(EFFECTS)}")
+
+    @property
+    def sim(self) -> dict:
+        return {"backend": self.backend, "method": self.method, "substeps": int(self.substeps)}
 
 
 def discover(records, nominal, candidates: Sequence[str] | None = None, split: Mapping | None = None, *,
@@ -148,243 +189,280 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     ValueError
         Unknown candidate names, a split leaving no training records, records too short to identify.
     """
-    settings = {k: v for k, v in locals().items() if k not in ("records", "nominal", "torch_threads")}
+    options = Options(**{k: v for k, v in locals().items() if k not in ("records", "nominal", "torch_threads")})
+    options.check()
     with intra_op_threads(torch_threads):
-        return _discover(records, nominal, **settings)
+        loop = Loop(records, nominal, options)
+        loop.nominal()
+        loop.trends("before effects")
+        loop.effects()
+        loop.swaps()
+        loop.trends("after effects")
+        return loop.result()
 
 
-def _discover(records, nominal, candidates, split, *, conditions, label_conditions, margin, criterion, max_steps,
-              top, lm_steps, box_factor, noise_sd, fit_nominal, identify_options, backend, method, substeps, refit,
-              leftover, validation, start_states, progress, workers) -> DiscoveryResult:
-    start = time.perf_counter()
-    if criterion not in ("bic", "aic"):
-        raise ValueError(f"unknown information criterion {criterion!r}; choose 'bic' or 'aic'")
-    if leftover not in LEFTOVER:
-        raise ValueError(f"unknown leftover measure {leftover!r}; choose one of {list(LEFTOVER)}")
-    records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
-    from ..physics.effects import EFFECTS
+class Loop:
+    """The loop's data, settings and state; one method per phase (module docstring)."""
 
-    unknown = [c for c in (candidates or []) if c not in EFFECTS]
-    if unknown:
-        raise ValueError(f"unknown candidate effect(s) {unknown}; the library has {sorted(EFFECTS)}")
-    split = dict(split or {})
-    train_set, val_set, test_set = records.split(held_out=split.get("held_out"), val=split.get("val"))
-    train, val, test = _as_records(train_set), _as_records(val_set), _as_records(test_set)
-    sim = {"backend": backend, "method": method, "substeps": int(substeps)}
-    if not train:
-        raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
-    cond_values = _trend_conditions(conditions, Split(train, val, test))
-    trend_values = dict(cond_values)  # the conditions a parameter may depend on: a leftover network reads them too
-    check_conditions(Split(train, val, test), conditions_used(nominal),
-                     "the nominal model (a parameter as a function of a condition)")
-    n_train = sum(len(r) for r in train)
-    for r in train:
-        r.require_samples(16, "discovery (identifying a candidate effect)")
-    score = Validation(validation, train, val, lm_steps=lm_steps, box_factor=box_factor)  # refuses a bad kind
-    model = nominal
-    if fit_nominal:
-        opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(identify_options or {})}
-        identify(model, train, fisher=False, progress=progress, backend=backend, ode_method=method,
-                 substeps=substeps, **opts)
-    splits = {"train": train, "val": val, "test": test}
+    def __init__(self, records, nominal, options: Options):
+        self.start_time = time.perf_counter()
+        self.options = o = options
+        records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
+        split = dict(o.split or {})
+        parts_ = records.split(held_out=split.get("held_out"), val=split.get("val"))
+        self.train, self.val, self.test = (_as_records(p) for p in parts_)
+        if not self.train:
+            raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
+        self.splits = {"train": self.train, "val": self.val, "test": self.test}
+        cond_values = _trend_conditions(o.conditions, Split(self.train, self.val, self.test))
+        self.trend_values = dict(cond_values)  # the conditions a parameter may depend on (a leftover network's too)
+        check_conditions(Split(self.train, self.val, self.test), conditions_used(nominal),
+                         "the nominal model (a parameter as a function of a condition)")
+        self.n_train = sum(len(r) for r in self.train)
+        for r in self.train:
+            r.require_samples(16, "discovery (identifying a candidate effect)")
+        self.score = Validation(o.validation, self.train, self.val, lm_steps=o.lm_steps,
+                                box_factor=o.box_factor)  # refuses a bad kind
+        self.rule = Acceptance(o.margin, o.criterion, self.n_train)
+        self.sim = o.sim
+        self.model = nominal
+        self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
+        # conditions with enough levels get their trends in one step (every constant parameter at once), before
+        # the effects and again after them for the parameters the effects brought; the others keep the
+        # one-parameter-at-a-time candidates
+        self.trend_conditions = [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]
+        self.single_conditions = {c: v for c, v in cond_values.items() if c not in self.trend_conditions}
+        self.steps: list[Step] = []
+        self.rejected: list[Step] = []
+        self.removed: list[Change] = []
+        self.tried: set[str] = set()  # effects not offered again (added, removed or replaced)
+        self.rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried at the end)
+        self.stopped = "rule"  # the best candidate was not accepted, or none was left
+        self.fit: Fit | None = None
+        self.now: Judged | None = None
 
-    def evaluate(m, at):  # predictions of every split (simulated once), their metrics and sub-steps; the training
-        runs = {s: simulated(m, rs, at, resolve=s != "train") for s, rs in splits.items()}  # split at the fit's own
+    # -- helpers ---------------------------------------------------------------------------------------------
+
+    def _bar(self, items, what: str, total: int | None = None):
+        return progress_bar(items, what, total=total, enabled=self.options.progress)
+
+    def judge(self, fit: Fit) -> Judged:
+        """How the rule sees a fitted model."""
+        return Judged(self.score(fit.model, _at(self.sim, fit)), self.rule.ic(fit))
+
+    def _test_rmse(self, fit: Fit) -> float | None:
+        return rmse_on(fit.model, self.test, _at(self.sim, fit)) if self.test else None
+
+    def _step(self, name: str, kind: str, description: str, fit: Fit, judged: Judged, before: Judged,
+              accepted: bool, **details) -> Step:
+        evidence = details.pop("evidence", {})
+        return Step(effect=name, kind=kind, description=description, accepted=accepted, val_before=before.val,
+                    val_after=judged.val, ic_before=before.ic, ic_after=judged.ic, criterion=self.rule.criterion,
+                    parameters=_parameters(fit.model), train_rmse=math.sqrt(fit.sse / self.n_train),
+                    val_rmse=judged.val if self.score.out_of_sample else None, test_rmse=self._test_rmse(fit),
+                    details=details, evidence_details=evidence)
+
+    def evaluate(self, model, sim: dict) -> tuple[dict, dict]:
+        """Predictions of every split (simulated once), their metrics and sub-steps: the training records at the
+        fit's own sub-steps, the others at those they need."""
+        runs = {s: simulated(model, rs, sim, resolve=s != "train") for s, rs in self.splits.items()}
         preds = {s: run[0] for s, run in runs.items()}
-        return preds, {s: {**record_metrics(splits[s], preds[s], label_conditions),
-                           "substeps": runs[s][1]} for s in splits}
+        return preds, {s: {**record_metrics(self.splits[s], preds[s], self.options.label_conditions),
+                           "substeps": runs[s][1]} for s in self.splits}
 
-    opts = {"lm_steps": lm_steps, "box_factor": box_factor, "margin": margin, "criterion": criterion,
-            "workers": int(workers)}
-    outside = outside_domain(model, train)
-    if outside:
-        raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "
-                         "(a trend that crosses zero between the data's levels); give values or a trend that stay "
-                         "inside it" + ("" if fit_nominal else ", or let the loop identify the nominal first "
-                                        "(fit_nominal)"))
-    fit = polish(model, train, sim, lm_steps, box_factor)
-    initial, initial_sim = copy.deepcopy(fit.model), _at(sim, fit)  # "before": the nominal as fitted
-    preds_before, before = evaluate(initial, initial_sim)
-    ic = information_criterion(fit.sse, n_train, fit.k, criterion)
-    val_rmse = val_rmse0 = score(initial, initial_sim)
-    diag_before = diagnose(train, preds_before["train"], noise_sd)
-    steps, rejected, removed = [], [], []
-    tried = set()
-    from ..physics.models import DrivenOscillator
+    # -- phases ----------------------------------------------------------------------------------------------
 
-    scales = Scales.of(train, oscillator=isinstance(model, DrivenOscillator))
-    # conditions with enough levels get their trends in one step (every constant parameter at once), before the
-    # effects and again after them for the parameters the effects brought; the others keep the
-    # one-parameter-at-a-time candidates
-    trend_conditions = [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]
-    for cond in trend_conditions:
-        cond_values.pop(cond)
+    def nominal(self) -> None:
+        """Identify the nominal on the training records (unless told not to) and converge its fit: "before"."""
+        o = self.options
+        if o.fit_nominal:
+            opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(o.identify_options or {})}
+            identify(self.model, self.train, fisher=False, progress=o.progress, backend=o.backend,
+                     ode_method=o.method, substeps=o.substeps, **opts)
+        outside = outside_domain(self.model, self.train)
+        if outside:
+            raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "
+                             "(a trend that crosses zero between the data's levels); give values or a trend that "
+                             "stay inside it" + ("" if o.fit_nominal else ", or let the loop identify the nominal "
+                                                 "first (fit_nominal)"))
+        self.fit = polish(self.model, self.train, self.sim, o.lm_steps, o.box_factor)
+        self.initial, self.initial_sim = copy.deepcopy(self.fit.model), _at(self.sim, self.fit)
+        self.preds_before, self.before = self.evaluate(self.initial, self.initial_sim)
+        self.now = self.judge(self.fit)
+        self.val0 = self.now.val
+        self.diag_before = diagnose(self.train, self.preds_before["train"], o.noise_sd)
 
-    def tidy() -> None:  # the removals and special cases tried after every accepted change
-        nonlocal fit, ic, val_rmse, removed
-        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
-                                           (lambda items, what: progress_bar(items, what, enabled=progress)))
+    def removals(self, rivals: dict | None = None, settled: bool = False) -> None:
+        """Remove or simplify effects while the rule prefers the simpler model (``selection.simplify``)."""
+        o = self.options
+        self.fit, self.now, gone = simplify(
+            self.fit, self.now, self.train, self.sim, self.scales, self.rule, self.score,
+            {"lm_steps": o.lm_steps, "box_factor": o.box_factor, "workers": int(o.workers)},
+            (lambda items, what: self._bar(items, what)), rivals, settled=settled)
         for g in gone:
-            g["after_step"] = len(steps)
-            tried.add(g["effect"])  # a removed or replaced effect is not offered again
-        removed += gone
+            g.after_step = len(self.steps)
+            if not settled:
+                self.tried.add(g.effect)  # a removed or replaced effect is not offered again
+        self.removed += gone
 
-    def try_trends(cond: str, when: str, effects: set[str] | None = None) -> None:
-        """Offer the trends of ``cond`` (of ``effects``' parameters, or all); once accepted, ``tidy``: an element
-        that stood in for them may have nothing left to do (as after any change)."""
-        nonlocal fit, ic, val_rmse
-        res = fit_trends(fit, train, sim, cond, lm_steps, box_factor, effects)
+    def trends(self, when: str) -> None:
+        """Offer every constant parameter (``"before effects"``) or those of the effects added (``"after
+        effects"``) as a function of each condition with enough levels, one condition at a time."""
+        effects = None
+        if when == "after effects":
+            effects = set(self.fit.model.effects) - set(self.initial.effects)
+            if not effects:
+                return
+        for cond in self.trend_conditions:
+            self._trend(cond, when, effects)
+
+    def _trend(self, cond: str, when: str, effects: set[str] | None) -> None:
+        o = self.options
+        res = fit_trends(self.fit, self.train, self.sim, cond, o.lm_steps, o.box_factor, effects)
         if res is None:
             return
         t_fit, chosen = res
-        t_val, t_ic = score(t_fit.model, _at(sim, t_fit)), information_criterion(
-            t_fit.sse, n_train, t_fit.k, criterion)
-        accepted = improves(t_val, val_rmse, margin) and t_ic < ic
-        entry = {"effect": f"trends~{cond}", "kind": "trend", "when": when,
-                 "description": f"parameters as functions of {cond}" + (
-                     " (those of the effects added)" if when == "after effects" else ""),
-                 "trends": chosen, "evidence": {"val_rmse_before": val_rmse, "val_rmse_after": t_val,
-                                                **parts(before=val_rmse, after=t_val),
-                                                f"{criterion}_before": ic, f"{criterion}_after": t_ic},
-                 "parameters": _parameters(t_fit.model), "train_rmse": math.sqrt(t_fit.sse / n_train),
-                 "val_rmse": t_val if score.out_of_sample else None, "accepted": accepted,
-                 "test_rmse": rmse_on(t_fit.model, test, _at(sim, t_fit)) if test else None}
-        (steps if accepted else rejected).append(entry)
-        if accepted:
-            fit, ic, val_rmse = t_fit, t_ic, t_val
-            tidy()
+        description = f"parameters as functions of {cond}" + (" (those of the effects added)"
+                                                              if when == "after effects" else "")
+        if t_fit is None:  # every parameter's levels are best described by a constant: said, not hidden
+            self.rejected.append(self._step(f"trends~{cond}", "trend", description + ": every parameter kept "
+                                            "constant (a constant described each one's per-level values best)",
+                                            self.fit, self.now, self.now, False, when=when, trends=chosen,
+                                            outcome="constant"))
+            return
+        judged = self.judge(t_fit)
+        accepted = self.rule.adds(judged, self.now)
+        step = self._step(f"trends~{cond}", "trend", description, t_fit, judged, self.now, accepted, when=when,
+                          trends=chosen)
+        (self.steps if accepted else self.rejected).append(step)
+        if accepted:  # an element that stood in for the trends may have nothing left to do (as after any change)
+            self.fit, self.now = t_fit, judged
+            self.removals()
 
-    for cond in trend_conditions:
-        try_trends(cond, "before effects")
-    stopped = "rule"  # the best candidate was not accepted, or none was left
-    rivals: dict[str, list[str]] = {}  # effect added -> the close calls of its step (tried again at the end)
-    for _step in range(int(max_steps)):
-        cands = [c for c in library_candidates(fit.model, scales, cond_values, candidates, start_states)
-                 if c.name not in tried]
-        if not cands:
-            break
-        if backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted in turn
+    def effects(self) -> None:
+        """The greedy steps: rank the candidates, let the rule pick one and accept it, or stop."""
+        o = self.options
+        for _ in range(int(o.max_steps)):
+            cands = [c for c in library_candidates(self.fit.model, self.scales, self.single_conditions, o.candidates,
+                                                   o.start_states) if c.name not in self.tried]
+            if not cands or not self._effect_step(cands):
+                return
+        self.stopped = "max_steps"  # every step accepted an effect: the cap ended the loop, not the rule
+
+    def _effect_step(self, cands) -> bool:
+        """One step over ``cands``; whether a candidate was accepted."""
+        o, fit = self.options, self.fit
+        if o.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
             _prebuild(cands, fit.model)
-        ranking = _fit_candidates(cands, fit.model, train, _at(sim, fit), lm_steps, box_factor, int(workers),
-                                  progress)
+        ranking = _fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
+                                  int(o.workers), self._bar)
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
-        ref = {s_: sse_at(fit, train, sim, s_) for s_ in {f.substeps for _, f in ranking if f is not None}}
+        ref = {s: sse_at(fit, self.train, self.sim, s) for s in {f.substeps for _, f in ranking if f is not None}}
         evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
                     for c, f in ranking}
-        finals = [(cand, f, score(f.model, _at(sim, f)))
-                  for cand, f in ranking[: int(top)] if f is not None]
+        finals = [(cand, f, self.judge(f)) for cand, f in ranking[: int(o.top)] if f is not None]
         if not finals:
-            break
-        # the lowest validation error; among candidates validation cannot tell apart (within the margin),
-        # the lowest information criterion (the most parsimonious explanation)
-        best_val = min((f[2] for f in finals), key=lambda v: v.key)
-        close = [f for f in finals if within(f[2], best_val, margin)]
-        cand, c_fit, f_val = min(close, key=lambda f: information_criterion(f[1].sse, n_train, f[1].k, criterion))
-        f_ic = information_criterion(c_fit.sse, n_train, c_fit.k, criterion)
-        ic_ref = information_criterion(ref[c_fit.substeps], n_train, fit.k, criterion)  # at the same resolution
-        accepted = improves(f_val, val_rmse, margin) and f_ic < min(ic, ic_ref)
-        entry = {"effect": cand.name, "kind": cand.kind, "description": cand.describe,
-                 "evidence": {"explained_share": evidence[cand.name], "ranking": evidence,
-                              "val_rmse_before": val_rmse, "val_rmse_after": f_val,
-                              **parts(before=val_rmse, after=f_val),
-                              f"{criterion}_before": ic, f"{criterion}_after": f_ic,
-                              "refitted": [f[0].name for f in finals],
-                              "compared": {f[0].name: {"val_rmse": f[2], "criterion": information_criterion(
-                                  f[1].sse, n_train, f[1].k, criterion), **parts(val=f[2])} for f in finals}},
-                 "parameters": _parameters(c_fit.model),
-                 "new_coordinates": {n: c_fit.coords.get(n) for n in cand.free},
-                 "train_rmse": math.sqrt(c_fit.sse / n_train), "substeps": c_fit.substeps,
-                 "val_rmse": f_val if score.out_of_sample else None,
-                 "test_rmse": rmse_on(c_fit.model, test, _at(sim, c_fit)) if test else None, "accepted": accepted}
+            return False
+        cand, c_fit, judged = finals[self.rule.pick([j for _, _, j in finals])]
+        # the current model at the candidate's resolution, too: a candidate that needed finer steps must beat it there
+        ic_ref = information_criterion(ref[c_fit.substeps], self.n_train, fit.k, self.rule.criterion)
+        accepted = self.rule.adds(judged, Judged(self.now.val, min(self.now.ic, ic_ref)))
+        step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, self.now, accepted, evidence={
+            "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
+            "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
+                         for f in finals}},
+            new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps)
         if not accepted:
-            rejected.append(entry)
-            break
-        steps.append(entry)
-        tried.add(cand.name)
+            self.rejected.append(step)
+            return False
+        self.steps.append(step)
+        self.tried.add(cand.name)
         # the close calls: finalists validation turned down where the information criterion preferred them
-        rivals[cand.name] = [f[0].name for f in finals if f[0] is not cand and f[0].kind == "effect"
-                             and information_criterion(f[1].sse, n_train, f[1].k, criterion) < f_ic]
-        fit = polish(c_fit.model, train, _at(sim, c_fit), lm_steps, box_factor)
-        ic, val_rmse = information_criterion(fit.sse, n_train, fit.k, criterion), score(fit.model, _at(sim, fit))
-        tidy()
-    else:  # every step accepted an effect: the cap ended the loop, not the rule
-        stopped = "max_steps"
-    # each added effect against the close calls of its step, on the final model (once; the model has been
-    # through the removals and special cases after its last step: those are not tried again until a swap)
-    rivals = {name: [r for r in names if r not in tried] for name, names in rivals.items()}
-    if any(rivals.values()):
-        fit, ic, val_rmse, gone = simplify(fit, train, sim, scales, n_train, opts, ic, val_rmse, score,
-                                           (lambda items, what: progress_bar(items, what, enabled=progress)), rivals,
-                                           settled=True)
-        for g in gone:
-            g["after_step"] = len(steps)
-        removed += gone
-    added_keys = set(fit.model.effects) - set(initial.effects)
-    if added_keys:  # the added effects' own parameters may depend on the condition (the nominal's had their turn)
-        for cond in trend_conditions:
-            try_trends(cond, "after effects", added_keys)
-    model, final_sim = fit.model, _at(sim, fit)
-    preds_after, after = evaluate(model, final_sim)
-    refitted = None
-    trained_model, trained_sim = model, final_sim  # the chosen structure fitted on the training records alone
-    if refit and val:  # the structure is chosen: its parameters (and the nominal's) use every non-test record
-        chosen = {"before": (initial, before), "after": (model, after)}
-        initial, initial_sim = _refit_on(initial, train + val, initial_sim, lm_steps, box_factor)
-        model, final_sim = _refit_on(model, train + val, final_sim, lm_steps, box_factor)
-        preds_before, before = evaluate(initial, initial_sim)
-        preds_after, after = evaluate(model, final_sim)
-        refitted = {"records": [r.name for r in train + val]}
-        for side, now in (("before", before), ("after", after)):
-            m, was = chosen[side]
-            refitted[side] = {"val_rmse_in_sample": now["val"].get("rmse"),
-                              "test_rmse_without_refit": was["test"].get("rmse"),
-                              "train_rmse_without_refit": was["train"]["rmse"],
-                              "parameters_without_refit": _parameters(m)}
-            now["val"] = was["val"]  # the validation error stays out of sample
-    diag_after = diagnose(train, preds_after["train"], noise_sd)
-    if leftover == "dynamics":
-        # on the training-only fit, so that the validation records are out of sample for the physics too
-        network = neural_leftover(trained_model, train, val or None, sim=trained_sim, conditions=trend_values,
-                                  progress=progress)
-    else:
-        network = residual_network(train, preds_after["train"], val or None, preds_after["val"] or None)
-    nominal_effects = {e.name for e in initial.effects.values()}
-    final_effects = [e.name for e in model.effects.values()]
-    report = {
-        "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
-                   "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
-                   "parameters": _parameters(initial), "diagnostics": diag_before},
-        "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
-                  "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
-                  "parameters": _parameters(model), "diagnostics": diag_after},
-        "steps": steps, "rejected": rejected, "removed": removed, "stopped": stopped,
-        "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
-                    "added": [e for e in final_effects if e not in nominal_effects],
-                    "dropped": sorted(nominal_effects - set(final_effects))},
-        "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": noise_sd,
-                        "dependence": diag_after["dependence"], "scale": diag_after["scale"],
-                        "whiteness": diag_after["whiteness"],
-                        "where": diag_after["where"], "residual_network": network,
-                        "structure_flagged": structure_flagged(network, after["train"]["rmse"], noise_sd)},
-        "settings": {"margin": margin, "criterion": criterion, "max_steps": max_steps, "top": top,
-                     "lm_steps": lm_steps, "candidates": list(candidates) if candidates else "library",
-                     "conditions": conditions if isinstance(conditions, bool) else list(conditions),
-                     "backend": backend, "method": method, "substeps": substeps,
-                     "substeps_final": final_sim["substeps"],
-                     "substeps_scored": {s: after[s]["substeps"] for s in splits if splits[s]},
-                     "leftover": leftover, "validation": validation,
-                     "refit": bool(refit and val)},
-        "validation": {"kind": validation, "on": score.scored, "rmse_before": val_rmse0, "rmse_after": val_rmse,
-                       **parts(before=val_rmse0, after=val_rmse)},
-        "refit": refitted,
-        "records": {"train": [r.name for r in train], "val": [r.name for r in val], "test": [r.name for r in test]},
-        "wall_s": time.perf_counter() - start,
-    }
-    return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
-                           splits=splits, initial_model=initial)
+        self.rivals[cand.name] = [f[0].name for f in finals
+                                  if f[0] is not cand and f[0].kind == "effect" and f[2].ic < judged.ic]
+        self.fit = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
+        self.now = self.judge(self.fit)
+        self.removals()
+        return True
+
+    def swaps(self) -> None:
+        """Each added effect against the close calls of its step, on the final model (once; the model has been
+        through the removals and special cases after its last step: those are not tried again until a swap)."""
+        rivals = {name: [r for r in names if r not in self.tried] for name, names in self.rivals.items()}
+        if any(rivals.values()):
+            self.removals(rivals, settled=True)
+
+    def result(self) -> DiscoveryResult:
+        """Refit the chosen structure, measure what is left and assemble the result."""
+        o = self.options
+        model, final_sim = self.fit.model, _at(self.sim, self.fit)
+        initial, initial_sim = self.initial, self.initial_sim
+        preds_before, before = self.preds_before, self.before
+        preds_after, after = self.evaluate(model, final_sim)
+        refitted = None
+        trained_model, trained_sim = model, final_sim  # the chosen structure fitted on the training records alone
+        if o.refit and self.val:  # the structure is chosen: its parameters (and the nominal's) use every non-test
+            chosen = {"before": (initial, before), "after": (model, after)}
+            initial, initial_sim = _refit_on(initial, self.train + self.val, initial_sim, o.lm_steps, o.box_factor)
+            model, final_sim = _refit_on(model, self.train + self.val, final_sim, o.lm_steps, o.box_factor)
+            preds_before, before = self.evaluate(initial, initial_sim)
+            preds_after, after = self.evaluate(model, final_sim)
+            refitted = {"records": [r.name for r in self.train + self.val]}
+            for side, now in (("before", before), ("after", after)):
+                m, was = chosen[side]
+                refitted[side] = {"val_rmse_in_sample": now["val"].get("rmse"),
+                                  "test_rmse_without_refit": was["test"].get("rmse"),
+                                  "train_rmse_without_refit": was["train"]["rmse"],
+                                  "parameters_without_refit": _parameters(m)}
+                now["val"] = was["val"]  # the validation error stays out of sample
+        diag_after = diagnose(self.train, preds_after["train"], o.noise_sd)
+        if o.leftover == "dynamics":
+            # on the training-only fit, so that the validation records are out of sample for the physics too
+            network = neural_leftover(trained_model, self.train, self.val or None, sim=trained_sim,
+                                      conditions=self.trend_values, progress=o.progress)
+        else:
+            network = residual_network(self.train, preds_after["train"], self.val or None,
+                                       preds_after["val"] or None)
+        nominal_effects = {e.name for e in initial.effects.values()}
+        final_effects = [e.name for e in model.effects.values()]
+        splits = self.splits
+        report = {
+            "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
+                       "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
+                       "parameters": _parameters(initial), "diagnostics": self.diag_before},
+            "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
+                      "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
+                      "parameters": _parameters(model), "diagnostics": diag_after},
+            "steps": [s.as_json() for s in self.steps], "rejected": [s.as_json() for s in self.rejected],
+            "removed": [c.as_json() for c in self.removed], "stopped": self.stopped,
+            "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
+                        "added": [e for e in final_effects if e not in nominal_effects],
+                        "dropped": sorted(nominal_effects - set(final_effects))},
+            "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": o.noise_sd,
+                            "dependence": diag_after["dependence"], "scale": diag_after["scale"],
+                            "whiteness": diag_after["whiteness"],
+                            "where": diag_after["where"], "residual_network": network,
+                            "structure_flagged": structure_flagged(network, after["train"]["rmse"], o.noise_sd)},
+            "settings": {"margin": o.margin, "criterion": o.criterion, "max_steps": o.max_steps, "top": o.top,
+                         "lm_steps": o.lm_steps, "candidates": list(o.candidates) if o.candidates else "library",
+                         "conditions": o.conditions if isinstance(o.conditions, bool) else list(o.conditions),
+                         "backend": o.backend, "method": o.method, "substeps": o.substeps,
+                         "substeps_final": final_sim["substeps"],
+                         "substeps_scored": {s: after[s]["substeps"] for s in splits if splits[s]},
+                         "leftover": o.leftover, "validation": o.validation,
+                         "refit": bool(o.refit and self.val)},
+            "validation": {"kind": o.validation, "on": self.score.scored, "rmse_before": self.val0,
+                           "rmse_after": self.now.val, **parts(before=self.val0, after=self.now.val)},
+            "refit": refitted,
+            "records": {s: [r.name for r in rs] for s, rs in splits.items()},
+            "wall_s": time.perf_counter() - self.start_time,
+        }
+        return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
+                               splits=splits, initial_model=initial, steps=list(self.steps),
+                               rejected=list(self.rejected), removed=list(self.removed))
 
 
-def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, progress: bool) -> list:
+def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, bar) -> list:
     """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``), ``workers`` at a
     time; a candidate that cannot be simulated gets None."""
     def one(cand):
@@ -393,8 +471,7 @@ def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int
         except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
             return None
 
-    fits = side_by_side(one, cands, workers,
-                        lambda items, n: progress_bar(items, "rank candidates", total=n, enabled=progress))
+    fits = side_by_side(one, cands, workers, lambda items, n: bar(items, "rank candidates", total=n))
     return list(zip(cands, fits))
 
 

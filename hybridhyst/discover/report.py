@@ -215,6 +215,10 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
                   ""]
     for s in r["rejected"]:
         ev = s["evidence"]
+        if s.get("outcome") == "constant":
+            lines += [f"The condition trends, **{s['effect']}**, changed nothing: fitted level by level, every "
+                      f"parameter's values were best described by a constant ({len(s['trends'])} tried).", ""]
+            continue
         moved = f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit}{_other_parts(ev, unit, True)}"
         what = (f"The condition trends, **{s['effect']}**, were not taken" if s["kind"] == "trend" else
                 f"The loop stopped at the best remaining candidate, **{s['effect']}**")

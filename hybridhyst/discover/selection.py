@@ -13,17 +13,10 @@ import math
 
 from .candidates import Candidate, effect_candidates
 from .fitting import Fit, at, fit_candidate, polish, side_by_side
-from .validation import parts, within
+from .result import Change
+from .rule import Acceptance, Judged
 
-__all__ = ["REPLACEMENTS", "combined", "information_criterion", "simplify"]
-
-
-def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
-    """BIC = n ln(SSE/n) + k ln n, or AIC = n ln(SSE/n) + 2k (Gaussian errors, k free coordinates)."""
-    if n <= 0 or not math.isfinite(sse) or sse <= 0:
-        return math.inf
-    penalty = k * math.log(n) if kind == "bic" else 2 * k
-    return n * math.log(sse / n) + penalty
+__all__ = ["REPLACEMENTS", "combined", "simplify"]
 
 
 def combined(candidates: list[Candidate]) -> Candidate:
@@ -67,18 +60,20 @@ def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | Non
             yield case, reduced, combined(effect_candidates(reduced, scales, new)), how
 
 
-def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, progress=None, rivals=None,
-             settled=False):
-    """Remove or swap effects while that lowers the information criterion and raises the validation error by
-    less than half the margin: each round takes the alternative with the lowest criterion, until none
-    qualifies. ``rivals`` (``{effect name: [library effect names]}``) adds swaps for another effect of the
-    library (the loop passes each added effect's close calls once it has stopped: a choice made on the model of
-    that step may no longer hold on the final one). ``settled``: ``fit`` has already been through this without
-    rivals (none of those alternatives qualified), so the first round tries the rivals' swaps alone. Returns
-    (fit, ic, val_rmse, entries) with one entry per change (``kind`` "removed" or "replaced", ``by`` the
-    effects put in its place, ``replacement`` why: "special_case" (a simpler set it contains as a special case)
-    or "rival_swap" (a runner-up it beat when it was added: a swap, not a special case); None for a removal)."""
-    changes = []
+def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score, opts: dict, progress=None,
+             rivals=None, settled=False) -> tuple[Fit, Judged, list[Change]]:
+    """Remove or swap effects while the rule prefers the simpler model (``Acceptance.simpler``: a lower
+    information criterion, the out-of-sample error ``score(model, sim)`` raised by less than half the margin):
+    each round takes the qualifying alternative with the lowest criterion, until none qualifies. ``now``: how
+    the rule sees ``fit``; ``opts``: ``lm_steps``, ``box_factor``, ``workers``. ``rivals`` (``{effect name:
+    [library effect names]}``) adds swaps for another effect of the library (the loop passes each added effect's
+    close calls once it has stopped: a choice made on the model of that step may no longer hold on the final
+    one). ``settled``: ``fit`` has already been through this without rivals (none of those alternatives
+    qualified), so the first round tries the rivals' swaps alone. Returns (fit, how the rule sees it, one
+    ``Change`` per change: ``kind`` "removed" or "replaced", ``by`` the effects put in its place, ``replacement``
+    why: "special_case" (a simpler set it contains as a special case) or "rival_swap" (a runner-up it beat when
+    it was added: a swap, not a special case); None for a removal)."""
+    changes: list[Change] = []
     while len(fit.model.effects) > 1:
         best = None
         only_rivals = settled and not changes
@@ -99,18 +94,17 @@ def simplify(fit: Fit, train, sim, scales, n_train, opts, ic, val_rmse, score, p
         for (key, by, _, _, how), f in zip(alternatives, refits):
             if f is None:
                 continue
-            f_ic = information_criterion(f.sse, n_train, f.k, opts["criterion"])
-            if not f_ic < ic or (best is not None and f_ic >= best[2]):
-                continue
-            f_val = score(f.model, at(sim, f))
-            if within(f_val, val_rmse, opts["margin"] / 2):
-                best = (key, by, f_ic, f_val, f, how)
+            f_ic = rule.ic(f)
+            if not f_ic < now.ic or (best is not None and f_ic >= best[2].ic):
+                continue  # scored only when it could be chosen (a score may cost a refit per operating point)
+            judged = Judged(score(f.model, at(sim, f)), f_ic)
+            if rule.simpler(judged, now):
+                best = (key, by, judged, f, how)
         if best is None:
             break
-        key, by, ic, new_val, f, how = best
-        changes.append({"effect": fit.model.effects[key].name, "key": key, "kind": "replaced" if by else "removed",
-                        "by": list(by), "replacement": how, "val_rmse_before": val_rmse, "val_rmse_after": new_val,
-                        **parts(before=val_rmse, after=new_val),
-                        "train_rmse": math.sqrt(f.sse / n_train)})
-        fit, val_rmse = f, new_val
-    return fit, ic, val_rmse, changes
+        key, by, judged, f, how = best
+        changes.append(Change(effect=fit.model.effects[key].name, key=key, kind="replaced" if by else "removed",
+                              by=list(by), replacement=how, val_before=now.val, val_after=judged.val,
+                              train_rmse=math.sqrt(f.sse / rule.n)))
+        fit, now = f, judged
+    return fit, now, changes

@@ -76,7 +76,8 @@ def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_fa
                effects: set[str] | None = None):
     """Per-condition identification of every constant parameter (of the effects keyed in ``effects`` only, less
     their sign-smoothing widths, when given), then a trend per parameter; returns ``(Fit of the model with
-    trends, {"effect.param": trend})`` or None (fewer than ``MIN_LEVELS`` levels, or no constant parameter)."""
+    trends, {"effect.param": trend})``, ``(None, {...})`` when every parameter's levels are best described by a
+    constant (nothing to refit), or None (fewer than ``MIN_LEVELS`` levels, or no constant parameter)."""
     values = [float(r.conditions[condition]) for r in train]
     levels = sorted(set(values))
     params = [(key, pname) for key, pname in _free_constants(fit.model)
@@ -105,5 +106,5 @@ def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_fa
         else:
             effect.params[pname] = Constant(coef["value"], effect.param_specs[pname]).to(dtype)
     if all(kind == "constant" for kind in chosen.values()):
-        return None
+        return None, chosen
     return polish(trended, train, {**sim, "substeps": per_fit.substeps}, lm_steps, box_factor), chosen

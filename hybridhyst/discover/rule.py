@@ -1,0 +1,71 @@
+"""The one rule every change of the model is judged by: an added effect, a parameter made a function of a
+condition, a start state, a removal, a swap for a simpler or a rival effect.
+
+A fitted model is seen by the rule as a ``Judged``: its out-of-sample error (a ``validation.Score``, which may
+stand for several errors) and its information criterion on the training records (BIC or AIC). Then:
+
+* ``adds(new, old)``: a richer model replaces the current one when its out-of-sample error falls by more than
+  ``margin`` (relative, in every part) **and** its information criterion falls;
+* ``simpler(new, old)``: a simpler model (an effect removed, or replaced by a special case or a rival)
+  replaces the current one when its information criterion falls and its out-of-sample error rises by at most
+  half the margin: between two models the data cannot tell apart, the one with fewer parameters;
+* ``pick(options)``: of several fitted alternatives, the one with the lowest out-of-sample error, and among
+  those within the margin of it the lowest information criterion (validation cannot tell them apart, so the
+  more parsimonious wins).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .validation import Score, improves, within
+
+__all__ = ["Acceptance", "Judged", "information_criterion"]
+
+
+def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
+    """BIC = n ln(SSE/n) + k ln n, or AIC = n ln(SSE/n) + 2k (Gaussian errors, k free coordinates)."""
+    if n <= 0 or not math.isfinite(sse) or sse <= 0:
+        return math.inf
+    penalty = k * math.log(n) if kind == "bic" else 2 * k
+    return n * math.log(sse / n) + penalty
+
+
+@dataclass(frozen=True)
+class Judged:
+    """What the rule sees of a fitted model: out-of-sample error ``val`` and information criterion ``ic``."""
+
+    val: Score | float
+    ic: float
+
+
+@dataclass(frozen=True)
+class Acceptance:
+    """The acceptance rule (module docstring). ``n``: training samples the criterion counts."""
+
+    margin: float
+    criterion: str
+    n: int
+
+    def __post_init__(self):
+        if self.criterion not in ("bic", "aic"):
+            raise ValueError(f"unknown information criterion {self.criterion!r}; choose 'bic' or 'aic'")
+
+    def ic(self, fit) -> float:
+        """The information criterion of a ``fitting.Fit`` (its training SSE and free coordinates)."""
+        return information_criterion(fit.sse, self.n, fit.k, self.criterion)
+
+    def adds(self, new: Judged, old: Judged) -> bool:
+        """Whether a richer model ``new`` earns its place over ``old``."""
+        return improves(new.val, old.val, self.margin) and new.ic < old.ic
+
+    def simpler(self, new: Judged, old: Judged) -> bool:
+        """Whether a simpler model ``new`` may replace ``old`` (it loses at most half the margin)."""
+        return new.ic < old.ic and within(new.val, old.val, self.margin / 2)
+
+    def pick(self, options: list[Judged]) -> int:
+        """Index of the option the rule prefers (lowest error; within the margin of it, lowest criterion)."""
+        best = min((o.val for o in options), key=lambda v: v.key if isinstance(v, Score) else float(v))
+        close = [i for i, o in enumerate(options) if within(o.val, best, self.margin)]
+        return min(close, key=lambda i: options[i].ic)
