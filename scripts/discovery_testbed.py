@@ -6,6 +6,8 @@ the truth. Writes the table into ``experiments/discovery_testbed/README.md`` (be
     PYTHONPATH=. python scripts/discovery_testbed.py --json /tmp/testbed.json --write-readme
     PYTHONPATH=. python scripts/discovery_testbed.py --cases coulomb,dahl --jobs 1
     PYTHONPATH=. python scripts/discovery_testbed.py --fast        # the two small cases of the default tests
+    PYTHONPATH=. python scripts/discovery_testbed.py --bed blind --json experiments/discovery_testbed/blind.json \
+        --write-readme   # the blind bed: once, with the loop final
 """
 
 from __future__ import annotations
@@ -21,12 +23,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 README = ROOT / "experiments" / "discovery_testbed" / "README.md"
-START, END = "<!-- results:start -->", "<!-- results:end -->"
+MARKERS = {"first": ("<!-- results:start -->", "<!-- results:end -->"),
+           "blind": ("<!-- blind:start -->", "<!-- blind:end -->")}
 
 
-def write_readme(section: str, path: Path = README) -> None:
+def write_readme(section: str, path: Path = README, bed: str = "first") -> None:
+    start, end = MARKERS[bed]
     text = path.read_text()
-    a, b = text.index(START) + len(START), text.index(END)
+    a, b = text.index(start) + len(start), text.index(end)
     path.write_text(text[:a] + "\n" + section + "\n" + text[b:])
 
 
@@ -59,6 +63,9 @@ def main(argv=None) -> list[dict]:
     from hybridhyst.testbed.run import markdown, run_bed, summary
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--bed", choices=("first", "blind"), default="first",
+                    help="which bed: the first (hybridhyst/testbed/cases.py, default) or the blind one "
+                    "(hybridhyst/testbed/blind.py, run once with the loop final: not for tuning)")
     ap.add_argument("--cases", help="comma-separated case names (default: all)")
     ap.add_argument("--fast", action="store_true", help=f"only the small cases {', '.join(FAST_CASES)}")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
@@ -71,6 +78,10 @@ def main(argv=None) -> list[dict]:
     args = ap.parse_args(argv)
     if args.write_readme and (args.validation != "records" or args.no_start_states):
         ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
+    if args.bed == "blind":
+        from hybridhyst.testbed.blind_cases import BLIND_CASE_BY_NAME, BLIND_CASES
+
+        CASE_BY_NAME, CASES = BLIND_CASE_BY_NAME, BLIND_CASES  # noqa: N806
     names = args.cases.split(",") if args.cases else list(FAST_CASES) if args.fast else [c.name for c in CASES]
     unknown = [n for n in names if n not in CASE_BY_NAME]
     if unknown:
@@ -91,7 +102,7 @@ def main(argv=None) -> list[dict]:
                                                "jobs": args.jobs,
                                                "summary": summary(rows), "rows": rows}, indent=2, default=str))
     if args.write_readme:
-        write_readme(section)
+        write_readme(section, bed=args.bed)
     print(section)
     return rows
 

@@ -331,6 +331,35 @@ def test_score_rules():
     assert s["effect_share"] == 1.0 and s["clean_ok"] == 1 and s["wall_s"] == 5.0
     text = markdown(rows)
     assert "| backlash+coulomb | pair |" in text and "Pass criteria" in text
+    # two members of one family for one effect: the second is an effect the data lack
+    row = score(pair, _report(["backlash", "coulomb", "asymmetric_coulomb"]), 1.0)
+    assert row["found"] and row["wrong"] == ["asymmetric_coulomb"] and not row["ok_effect"]
+
+
+def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_words():
+    """The blind bed (``testbed/blind.py``, written without the library): every case builds records, a nominal of
+    its declared base law that simulates, and a split; an effect the library has a family for is scored as an
+    effect case, one it lacks as out of library, no effect as a clean control."""
+    import torch
+
+    from hybridhyst.simulate import simulate
+    from hybridhyst.testbed import blind
+    from hybridhyst.testbed.blind_cases import BLIND_CASES, family
+
+    assert len(BLIND_CASES) >= 16
+    by = {c.name: c for c in BLIND_CASES}
+    assert by["clean_symmetric_damper"].category == "clean"
+    assert by["play_friction_damper"].expected == (frozenset({"backlash", "clearance"}),)
+    assert by["asymmetric_friction_drift_damper"].category == "pair"
+    assert by["asymmetric_viscous_damper"].category == "out_of_library"  # no direction-dependent damping
+    assert by["cogging_rotary_damper"].category == "out_of_library"
+    assert family("asymmetry", blind.case("asymmetric_viscous_damper")) is None
+    for case in BLIND_CASES:
+        records = case.records()
+        train, val, test = records.split(**case.split)
+        assert len(train.records) >= 3 and len(test.records) >= 1, case.name
+        out = simulate(case.nominal(), [train.records[0]], backend="reference")
+        assert bool(torch.isfinite(out[0]).all()), case.name
 
 
 # -- (e) one small case end to end -------------------------------------------------------------------------------
