@@ -33,6 +33,10 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
     fitted = rep["steps"][0]["new_coordinates"][f"{effect}.{key}"]
     assert fitted == pytest.approx(values[key], rel=0.05)
     assert rep["after"]["test_rmse"] <= 1.2 * NOISE < rep["before"]["test_rmse"]
+    # the other out-of-sample error, measured for the accepted step: a true effect carries over, no disagreement
+    cross = rep["steps"][0]["cross_check"]
+    assert cross["kind"] == "loco" and cross["after"] < cross["before"] and not cross["disagrees"]
+    assert rep["noise"] == {"sd": NOISE, "source": "given", "floor_share": 0.5}
     n_train = sum(len(r) for r in res.splits["train"])  # the BIC reported is the formula with k coordinates
     assert _coordinates_in_bic(rep["steps"][0], n_train) == pytest.approx(2 + len(rep["steps"][0]["new_coordinates"]))
     report = write_discovery(res, tmp_path, title="t", unit="kip")

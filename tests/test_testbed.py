@@ -301,8 +301,9 @@ def test_case_data_nominal_and_split():
 
 
 def _report(named, params=None, trends=(), flagged=None, after=0.031):
-    steps = [{"effect": n, "kind": "effect", "new_coordinates": {}} for n in named]
-    steps += [{"effect": n, "kind": "condition", "new_coordinates": {}} for n in trends]
+    ev = {"val_rmse_before": 0.1, "val_rmse_after": 0.05}
+    steps = [{"effect": n, "kind": "effect", "new_coordinates": {}, "evidence": ev} for n in named]
+    steps += [{"effect": n, "kind": "condition", "new_coordinates": {}, "evidence": ev} for n in trends]
     unexplained = {} if flagged is None else {"structure_flagged": flagged}
     return {"before": {"test_rmse": 1.0}, "after": {"test_rmse": after, "parameters": params or {}},
             "steps": steps, "effects": {"added": list(named), "dropped": []}, "unexplained": unexplained}

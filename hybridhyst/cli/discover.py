@@ -20,6 +20,7 @@ from ..data.records import RecordSet
 from ..data.splits import Split
 from ..discover import discover
 from ..discover.report import check_discovery, write_discovery
+from ..discover.result import disagreement_line
 from .common import (
     CONF_DIR,
     check_app,
@@ -74,6 +75,9 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     line += f"; removed {', '.join(removed)}" if removed else ""
     line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""
     lines = [line]
+    lines += [f"  {text}" for text in
+              (disagreement_line(s, unit) for s in (report.get("steps") or []) + (report.get("rejected") or []))
+              if text]
     if report.get("stopped") == "max_steps":
         n = report.get("settings", {}).get("max_steps")
         lines.append(f"  stopped at the cap on effects added (discover.max_steps={n}), not by the acceptance rule: "
@@ -133,7 +137,8 @@ def run(cfg: DictConfig) -> dict:
                        fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
                        backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
                        leftover=str(d.leftover), validation=str(d.validation),
-                       start_states=bool(d.start_states), progress=bool(cfg.progress), workers=_workers(d))
+                       start_states=bool(d.start_states), progress=bool(cfg.progress), workers=_workers(d),
+                       cross_check=str(d.get("cross_check", "confirm")))
         result = discover(records, model, **options)
     check_discovery(result, keep_going=bool(cfg.get("keep_going", False)),
                     time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))

@@ -13,7 +13,8 @@ rejected and undone) and runs one method per phase, in this order (``discover``)
    best ``top`` the rule picks one on validation error and information criterion, and accepts it or stops;
 4. ``removals`` after every accepted change: each effect removed, or replaced by a special case (``selection``);
 5. ``swaps``: each added effect against the rivals it beat when it was added, on the final model;
-6. ``trends("after effects")``: the added effects' own parameters as functions of the conditions;
+6. ``trends("after effects")``: the parameters of effects a swap put in, as functions of the conditions (an
+   effect a step accepts has them offered at once: ``trends_of_added``);
 7. ``refit``: the chosen structure (and the nominal) refitted on training and validation records;
 8. ``leftover``: how much structure the residual still holds.
 
@@ -29,6 +30,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from ..analysis.noise import noise_sd
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
@@ -46,7 +48,7 @@ from .result import Change, DiscoveryResult, Step
 from .rule import Acceptance, Judged, information_criterion
 from .selection import simplify
 from .trends import MIN_LEVELS, fit_trends
-from .validation import Validation, parts, record_metrics, rmse_on, simulated
+from .validation import Validation, condition_groups, improves, parts, record_metrics, rmse_on, simulated
 
 __all__ = ["Change", "DiscoveryResult", "Step", "discover", "information_criterion"]
 
@@ -87,6 +89,9 @@ def _parameters(model) -> dict:
             for e, params in model.parameter_table().items() for p, info in params.items()}
 
 
+CROSS_CHECK = ("confirm", "report", "off")
+
+
 @dataclass(frozen=True)
 class Options:
     """``discover``'s settings (its docstring says what each means)."""
@@ -113,12 +118,15 @@ class Options:
     start_states: bool = True
     progress: bool = True
     workers: int = 1
+    cross_check: str = "confirm"
 
     def check(self) -> None:
         from ..physics.effects import EFFECTS
 
         if self.criterion not in ("bic", "aic"):
             raise ValueError(f"unknown information criterion {self.criterion!r}; choose 'bic' or 'aic'")
+        if self.cross_check not in CROSS_CHECK:
+            raise ValueError(f"unknown cross_check {self.cross_check!r}; choose one of {list(CROSS_CHECK)}")
         if self.leftover not in LEFTOVER:
             raise ValueError(f"unknown leftover measure {self.leftover!r}; choose one of {list(LEFTOVER)}")
         unknown = [c for c in (self.candidates or []) if c not in EFFECTS]
@@ -137,7 +145,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
              validation: str = "records", start_states: bool = True, progress: bool = True,
-             workers: int = 1, torch_threads: int | None = 1) -> DiscoveryResult:
+             workers: int = 1, cross_check: str = "confirm", torch_threads: int | None = 1) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -164,7 +172,9 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         parameter function of a condition or a start state each).
     top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
-    noise_sd : known noise level (reported beside the residual RMSE; not used by the rule).
+    noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats
+        models whose mean squared errors differ by at most ``rule.NOISE_SHARE`` σ² as within the noise of each
+        other; without it, σ is estimated from the training responses (``analysis.noise``; reported).
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
         ``identify_options``); else start from its current values.
     backend, method, substeps : simulator settings ("fast": compiled, cached per model structure).
@@ -182,6 +192,12 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         no noise level is known.
     workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
         fit's rows then run in its own thread). The fits and the result are the same for any number.
+    cross_check : "confirm" (default), "report" or "off". For every step the rule accepts, also measure the
+        out-of-sample error it did not judge (with ``validation="records"``, leave-one-condition-out over the
+        training operating points; with ``"loco"``, the validation records'). When that error did not fall by the
+        margin too, the evidence disagrees: "confirm" refuses the step, "report" keeps it; both say so in one line
+        (``result.disagreement_line``; report and terminal summary). A refit per training operating point for each
+        model compared; nothing with ``"both"`` (both errors judged for every candidate).
     torch_threads : torch intra-op threads during the run (restored after; None leaves them), as ``identify``.
 
     Raises
@@ -223,7 +239,11 @@ class Loop:
             r.require_samples(16, "discovery (identifying a candidate effect)")
         self.score = Validation(o.validation, self.train, self.val, lm_steps=o.lm_steps,
                                 box_factor=o.box_factor)  # refuses a bad kind
-        self.rule = Acceptance(o.margin, o.criterion, self.n_train)
+        # the noise level the rule judges "within the noise" by: the user's, else estimated from the data
+        estimate = noise_sd([r.y for r in self.train])
+        self.noise = {"sd": o.noise_sd, "source": "given"} if o.noise_sd else {
+            "sd": estimate, "source": "estimated from the training responses' second differences (analysis.noise)"}
+        self.rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
         self.sim = o.sim
         self.model = nominal
         self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
@@ -240,6 +260,9 @@ class Loop:
         self.stopped = "rule"  # the best candidate was not accepted, or none was left
         self.fit: Fit | None = None
         self.now: Judged | None = None
+        self.trended: set[str] = set()  # keys of added effects whose parameters were offered trends
+        self.cross = self._cross_score()
+        self._cross_cache: tuple[Fit, float] | None = None
 
     # -- helpers ---------------------------------------------------------------------------------------------
 
@@ -269,6 +292,44 @@ class Loop:
         preds = {s: run[0] for s, run in runs.items()}
         return preds, {s: {**record_metrics(self.splits[s], preds[s], self.options.label_conditions),
                            "substeps": runs[s][1]} for s in self.splits}
+
+    def _cross_score(self):
+        """``(kind, score)``: the out-of-sample error the rule does not judge (``cross_check``), or None."""
+        o = self.options
+        if o.cross_check == "off" or o.validation == "both":
+            return None
+        if o.validation == "records" and len(self.score.groups or condition_groups(self.train)) >= 2:
+            return "loco", Validation("loco", self.train, [], lm_steps=o.lm_steps, box_factor=o.box_factor)
+        if o.validation == "loco" and self.val:
+            return "records", Validation("records", self.train, self.val, lm_steps=o.lm_steps,
+                                         box_factor=o.box_factor)
+        return None
+
+    def _cross(self, fit: Fit) -> float:
+        if self._cross_cache is not None and self._cross_cache[0] is fit:
+            return self._cross_cache[1]
+        value = float(self.cross[1](fit.model, _at(self.sim, fit)))
+        self._cross_cache = (fit, value)
+        return value
+
+    def _confirmed(self, step: Step, new: Fit) -> bool:
+        """Cross-check a step the rule accepted: the other error before and after it (``step.details
+        ["cross_check"]``), and whether it disagrees (it did not fall by the margin, while the judged one did).
+        False when it disagrees and ``cross_check`` is "confirm": the step is then refused. A cross-check that
+        cannot be evaluated (a refit without one operating point that does not simulate) decides nothing."""
+        if self.cross is None:
+            return True
+        before, after = self._cross(self.fit), self._cross(new)
+        determined = math.isfinite(before) and math.isfinite(after)
+        disagrees = determined and not improves(after, before, self.options.margin)
+        step.details["cross_check"] = {"kind": self.cross[0], "before": before if math.isfinite(before) else None,
+                                       "after": after if math.isfinite(after) else None, "disagrees": disagrees,
+                                       "determined": determined, "refused": disagrees and self.refuses}
+        return not (disagrees and self.refuses)
+
+    @property
+    def refuses(self) -> bool:
+        return self.options.cross_check == "confirm"
 
     # -- phases ----------------------------------------------------------------------------------------------
 
@@ -306,15 +367,27 @@ class Loop:
         self.removed += gone
 
     def trends(self, when: str) -> None:
-        """Offer every constant parameter (``"before effects"``) or those of the effects added (``"after
-        effects"``) as a function of each condition with enough levels, one condition at a time."""
+        """Offer every constant parameter (``"before effects"``) or those of the effects added and not offered
+        yet (``"after effects"``: an effect put in by a swap) as a function of each condition with enough levels,
+        one condition at a time."""
         effects = None
         if when == "after effects":
-            effects = set(self.fit.model.effects) - set(self.initial.effects)
+            effects = set(self.fit.model.effects) - set(self.initial.effects) - self.trended
             if not effects:
                 return
         for cond in self.trend_conditions:
             self._trend(cond, when, effects)
+
+    def trends_of_added(self, before: set[str]) -> None:
+        """Right after an effect is accepted, its parameters' trends (and those of any effect put in by the
+        removals that followed): a level that rises with the condition is given its trend before the next step,
+        or the next step would add an element to stand in for it."""
+        added = set(self.fit.model.effects) - before - set(self.initial.effects) - self.trended
+        if not added:
+            return
+        self.trended |= added
+        for cond in self.trend_conditions:
+            self._trend(cond, "after effects", added & set(self.fit.model.effects))
 
     def _trend(self, cond: str, when: str, effects: set[str] | None) -> None:
         o = self.options
@@ -334,6 +407,8 @@ class Loop:
         accepted = self.rule.adds(judged, self.now)
         step = self._step(f"trends~{cond}", "trend", description, t_fit, judged, self.now, accepted, when=when,
                           trends=chosen)
+        if accepted:
+            step.accepted = accepted = self._confirmed(step, t_fit)
         (self.steps if accepted else self.rejected).append(step)
         if accepted:  # an element that stood in for the trends may have nothing left to do (as after any change)
             self.fit, self.now = t_fit, judged
@@ -372,6 +447,9 @@ class Loop:
             "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
                          for f in finals}},
             new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps)
+        if accepted:
+            polished = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
+            step.accepted = accepted = self._confirmed(step, polished)
         if not accepted:
             self.rejected.append(step)
             return False
@@ -380,9 +458,11 @@ class Loop:
         # the close calls: finalists validation turned down where the information criterion preferred them
         self.rivals[cand.name] = [f[0].name for f in finals
                                   if f[0] is not cand and f[0].kind == "effect" and f[2].ic < judged.ic]
-        self.fit = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
+        keys = set(fit.model.effects)
+        self.fit = polished
         self.now = self.judge(self.fit)
         self.removals()
+        self.trends_of_added(keys)
         return True
 
     def swaps(self) -> None:
@@ -454,6 +534,7 @@ class Loop:
             "validation": {"kind": o.validation, "on": self.score.scored, "rmse_before": self.val0,
                            "rmse_after": self.now.val, **parts(before=self.val0, after=self.now.val)},
             "refit": refitted,
+            "noise": {**self.noise, "floor_share": self.rule.share},
             "records": {s: [r.name for r in rs] for s, rs in splits.items()},
             "wall_s": time.perf_counter() - self.start_time,
         }

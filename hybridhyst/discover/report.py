@@ -15,6 +15,7 @@ from ..report.markdown import model_reuse_sentence
 from .diagnose import FEATURE_UNITS, FEATURES, features
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
+from .result import disagreement_line
 
 __all__ = ["change_sentence", "check_discovery", "diverged_records", "write_discovery"]
 
@@ -176,6 +177,12 @@ def change_sentence(change: dict, scored: str, unit: str) -> str:
             "information criterion fell).")
 
 
+def _disagrees(step: dict, unit: str) -> str:
+    """The step's disagreement line as a sentence of its paragraph ("" when its evidence agrees)."""
+    text = disagreement_line(step, unit)
+    return f" **{text[0].upper()}{text[1:]}.**" if text else ""
+
+
 def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     r = result.report
     b, a = r["before"], r["after"]
@@ -206,7 +213,8 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
                   "both`).", ""]
     elif not r["records"]["val"]:
         lines += ["No validation records: the acceptance rule's RMSE is the training records'.", ""]
-    lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + "\n" for s in r["steps"]] or ["Nothing was added.", ""]
+    lines += [_paragraph(s, b.get("val_rmse"), unit, scored) + _disagrees(s, unit) + "\n" for s in r["steps"]] or [
+        "Nothing was added.", ""]
     for g in r.get("removed", []):
         lines += [change_sentence(g, scored, unit), ""]
     if r.get("stopped") == "max_steps":
@@ -215,6 +223,10 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
                   ""]
     for s in r["rejected"]:
         ev = s["evidence"]
+        refused = disagreement_line(s, unit) if (s.get("cross_check") or {}).get("refused") else None
+        if refused:
+            lines += [f"The loop stopped at **{s['effect']}**, refused by its cross-check: {refused}.", ""]
+            continue
         if s.get("outcome") == "constant":
             lines += [f"The condition trends, **{s['effect']}**, changed nothing: fitted level by level, every "
                       f"parameter's values were best described by a constant ({len(s['trends'])} tried).", ""]

@@ -10,7 +10,7 @@ import torch
 
 from .validation import parts
 
-__all__ = ["Change", "DiscoveryResult", "Step"]
+__all__ = ["Change", "DiscoveryResult", "Step", "disagreement_line"]
 
 
 @dataclass
@@ -88,3 +88,26 @@ class DiscoveryResult:
     steps: list[Step] = field(default_factory=list)
     rejected: list[Step] = field(default_factory=list)
     removed: list[Change] = field(default_factory=list)
+
+
+CROSS_NAMES = {"loco": "leave-one-condition-out RMSE of the training operating points",
+               "records": "validation records' RMSE"}
+
+
+def disagreement_line(step: dict, unit: str = "") -> str | None:
+    """The one line that says a step's two out-of-sample errors disagree (``step["cross_check"]``, from the loop:
+    the error the rule judged fell by the margin, the other rose or fell by less), or None. ``step``: a step as in
+    ``discovery.json``."""
+    cross = step.get("cross_check") or {}
+    if not cross.get("disagrees"):
+        return None
+    ev, u = step["evidence"], f" {unit}" if unit else ""
+    judged = CROSS_NAMES["records" if cross["kind"] == "loco" else "loco"]
+    b, a = cross["before"], cross["after"]
+    moved = "rose" if a > b else f"fell only {100 * (1 - a / b):.1f} %, less than the margin,"
+    fell = 100 * (1 - ev["val_rmse_after"] / ev["val_rmse_before"])
+    return (f"step {step['effect']}: the {judged} fell {fell:.1f} % ({ev['val_rmse_before']:.4g} -> "
+            f"{ev['val_rmse_after']:.4g}{u}) but the {CROSS_NAMES[cross['kind']]} {moved} ({b:.4g} -> {a:.4g}{u}): "
+            "the evidence disagrees, so the step may fit what the judged records share rather than what carries "
+            "over to other conditions; " + ("the loop refused it (discover.cross_check=confirm)" if cross.get("refused")
+                                            else "weigh the held-out error"))

@@ -12,6 +12,14 @@ stand for several errors) and its information criterion on the training records 
 * ``pick(options)``: of several fitted alternatives, the one with the lowest out-of-sample error, and among
   those within the margin of it the lowest information criterion (validation cannot tell them apart, so the
   more parsimonious wins).
+
+**Within the noise.** A relative margin alone lets a model that already predicts at the noise level take on an
+element the data lack: a flexible friction term that lowers a validation error of 1.05 σ to 1.02 σ passes a
+2 % margin. With a noise level σ (the user's, or estimated from the data: ``analysis.noise``), two models whose
+mean squared errors differ by at most ``NOISE_SHARE`` σ² are *within the noise* of each other: an addition must
+lower the mean squared error by more than that, a simpler model may raise it by up to that, and a pick treats
+options within it of the best as tied (the fewer parameters win). Far above the noise the margin is the larger
+requirement and decides, as before.
 """
 
 from __future__ import annotations
@@ -19,9 +27,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .validation import Score, improves, within
+from .validation import Score, errors, improves, within
 
-__all__ = ["Acceptance", "Judged", "information_criterion"]
+__all__ = ["Acceptance", "Judged", "NOISE_SHARE", "information_criterion"]
+
+NOISE_SHARE = 0.5  # models whose mean squared errors differ by at most this many σ² are within the noise
 
 
 def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> float:
@@ -42,11 +52,23 @@ class Judged:
 
 @dataclass(frozen=True)
 class Acceptance:
-    """The acceptance rule (module docstring). ``n``: training samples the criterion counts."""
+    """The acceptance rule (module docstring). ``n``: training samples the criterion counts; ``noise``: the noise
+    standard deviation σ in the response's unit (None: the margin alone)."""
 
     margin: float
     criterion: str
     n: int
+    noise: float | None = None
+    share: float = NOISE_SHARE
+
+    @property
+    def floor(self) -> float:
+        """The difference in mean squared error within the noise (``share`` σ²; 0 without a noise level)."""
+        return self.share * self.noise**2 if self.noise and math.isfinite(self.noise) else 0.0
+
+    def _gains(self, new, old) -> list[float]:
+        """Per error part: old² − new² (how much mean squared error ``new`` removes)."""
+        return [o * o - n * n for n, o in zip(errors(new), errors(old), strict=True)]
 
     def __post_init__(self):
         if self.criterion not in ("bic", "aic"):
@@ -58,14 +80,19 @@ class Acceptance:
 
     def adds(self, new: Judged, old: Judged) -> bool:
         """Whether a richer model ``new`` earns its place over ``old``."""
-        return improves(new.val, old.val, self.margin) and new.ic < old.ic
+        return (improves(new.val, old.val, self.margin) and new.ic < old.ic
+                and all(g > self.floor for g in self._gains(new.val, old.val)))
 
     def simpler(self, new: Judged, old: Judged) -> bool:
-        """Whether a simpler model ``new`` may replace ``old`` (it loses at most half the margin)."""
-        return new.ic < old.ic and within(new.val, old.val, self.margin / 2)
+        """Whether a simpler model ``new`` may replace ``old``: it loses at most half the margin, or stays within
+        the noise of it."""
+        return new.ic < old.ic and (within(new.val, old.val, self.margin / 2)
+                                    or all(-g <= self.floor for g in self._gains(new.val, old.val)))
 
     def pick(self, options: list[Judged]) -> int:
-        """Index of the option the rule prefers (lowest error; within the margin of it, lowest criterion)."""
+        """Index of the option the rule prefers (lowest error; within the margin or the noise of it, lowest
+        criterion)."""
         best = min((o.val for o in options), key=lambda v: v.key if isinstance(v, Score) else float(v))
-        close = [i for i, o in enumerate(options) if within(o.val, best, self.margin)]
+        close = [i for i, o in enumerate(options) if within(o.val, best, self.margin)
+                 or all(-g <= self.floor for g in self._gains(o.val, best))]
         return min(close, key=lambda i: options[i].ic)

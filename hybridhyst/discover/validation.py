@@ -38,8 +38,8 @@ from ..data.records import Record
 from ..simulate import simulate, simulate_resolved
 from .fitting import polish
 
-__all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "improves", "parts", "predict", "record_metrics",
-           "rmse_on", "within"]
+__all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "errors", "improves", "parts", "predict",
+           "record_metrics", "rmse_on", "within"]
 
 VALIDATION = ("records", "loco", "both")
 
@@ -63,7 +63,8 @@ class Score(float):
         return math.inf if math.inf in vals else math.prod(vals) ** (1 / len(vals))  # one part: the value itself
 
 
-def _errors(score) -> list[float]:
+def errors(score) -> list[float]:
+    """The errors a score stands for (one for a plain number)."""
     return list(score.parts.values()) if isinstance(score, Score) else [float(score)]
 
 
@@ -75,12 +76,12 @@ def parts(**scores) -> dict:
 
 def improves(new, old, margin: float) -> bool:
     """Whether ``new`` is below ``(1 - margin)`` times ``old`` in every part."""
-    return all(n < (1 - margin) * o for n, o in zip(_errors(new), _errors(old), strict=True))
+    return all(n < (1 - margin) * o for n, o in zip(errors(new), errors(old), strict=True))
 
 
 def within(new, old, tol: float) -> bool:
     """Whether ``new`` is at most ``(1 + tol)`` times ``old`` in every part."""
-    return all(n <= (1 + tol) * o for n, o in zip(_errors(new), _errors(old), strict=True))
+    return all(n <= (1 + tol) * o for n, o in zip(errors(new), errors(old), strict=True))
 
 
 def simulated(model, records, sim: dict, resolve: bool = True) -> tuple[list[np.ndarray], int]:

@@ -85,7 +85,14 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
            "test_rmse_before": before, "test_rmse_after": after, "after_over_noise": ratio,
            "ok_rmse": ratio is not None and ratio <= RMSE_RATIO, "flagged": flagged,
            "network_share": network_share, "train_rmse_after": report["after"].get("train_rmse"), "wall_s": wall_s,
-           "keys": [], "error": None}
+           "keys": [], "error": None,
+           # every step tried (accepted ones first), its validation RMSE before and after in units of the noise
+           # (and, for accepted steps, the leave-one-condition-out cross-check before and after)
+           "path": [[s["effect"], bool(s.get("accepted")), *(_number(s["evidence"][k]) and
+                                                             _number(s["evidence"][k]) / case.noise
+                                                             for k in ("val_rmse_before", "val_rmse_after")),
+                     *[_number((s.get("cross_check") or {}).get(k)) for k in ("before", "after")]]
+                    for s in steps + report.get("rejected", [])]}
     if case.category in EFFECT_CATEGORIES:
         found = all(any(n in family for n in named) for family in case.expected)
         # named effects in no expected family, and a second member of one (two hysteretic elements for one)
