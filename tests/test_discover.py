@@ -36,7 +36,7 @@ def test_undeclared_effect_is_named_first_recovered_and_brings_held_out_error_to
     # the other out-of-sample error, measured for the accepted step: a true effect carries over, no disagreement
     cross = rep["steps"][0]["cross_check"]
     assert cross["kind"] == "loco" and cross["after"] < cross["before"] and not cross["disagrees"]
-    assert rep["noise"] == {"sd": NOISE, "source": "given", "floor_share": 0.5}
+    assert rep["noise"] == {"sd": NOISE, "source": "given", "floor_share": 0.5, "sd_at_the_end": NOISE}
     n_train = sum(len(r) for r in res.splits["train"])  # the BIC reported is the formula with k coordinates
     assert _coordinates_in_bic(rep["steps"][0], n_train) == pytest.approx(2 + len(rep["steps"][0]["new_coordinates"]))
     report = write_discovery(res, tmp_path, title="t", unit="kip")
@@ -523,3 +523,35 @@ def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_anothe
             assert a["evidence"]["ranking"] == b["evidence"]["ranking"]
             assert a["parameters"] == b["parameters"]
     assert one["after"]["test_rmse"] == three["after"]["test_rmse"]
+
+
+def test_an_estimated_noise_level_is_capped_by_what_the_model_already_leaves(float64):
+    """Without ``noise_sd`` the rule's σ is estimated from the data (``analysis.noise``); sampled at 12 points per
+    cycle a sine's own shape shows in its differences (the estimate several times the noise). The missing friction
+    is still named, and once a model leaves less than the estimate its training RMSE is the level the rule uses;
+    a level the user gave is kept."""
+    from hybridhyst.discover.fitting import Fit
+    from hybridhyst.discover.loop import Loop, Options
+
+    rng = np.random.default_rng(0)
+    out = []
+    for amp, f in [(0.5, 1.0), (1.0, 1.0), (1.0, 2.0), (0.75, 1.5), (1.5, 1.0), (1.5, 2.0)]:
+        t = np.arange(49) / (12 * f)
+        x, v = amp * np.sin(2 * np.pi * f * t), 2 * np.pi * f * amp * np.cos(2 * np.pi * f * t)
+        y = 2.0 * x + 0.5 * v + 0.6 * np.tanh(v / 0.05) + NOISE * rng.standard_normal(len(t))
+        out.append(Record(name=f"s{amp:g}_{f:g}", t=t, x=x, y=y, conditions={"amplitude_in": amp, "frequency_hz": f}))
+    records = RecordSet(out)
+    res = discover(records, base_model("coulomb"), candidates=["coulomb"], split=SPLIT, conditions=False,
+                   backend="reference", **FAST)
+    noise = res.report["noise"]
+    assert noise["source"].startswith("estimated") and noise["sd"] > 2 * NOISE
+    assert [s["effect"] for s in res.report["steps"]] == ["coulomb"]
+    loop = Loop(records, base_model("coulomb"), Options(split=SPLIT, conditions=False))
+    n = loop.n_train
+    loop.fit = Fit(loop.model, sse=n * (0.5 * noise["sd"]) ** 2, k=3)
+    assert loop.rule.noise == pytest.approx(0.5 * noise["sd"])  # capped by the model's training RMSE
+    loop.fit = Fit(loop.model, sse=n * (2 * noise["sd"]) ** 2, k=3)
+    assert loop.rule.noise == pytest.approx(noise["sd"])
+    given = Loop(records, base_model("coulomb"), Options(split=SPLIT, conditions=False, noise_sd=1.0))
+    given.fit = loop.fit
+    assert given.rule.noise == 1.0

@@ -28,7 +28,7 @@ import copy
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..analysis.noise import noise_sd
 from ..data.records import Record, RecordSet
@@ -174,7 +174,8 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
     noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats
         models whose mean squared errors differ by at most ``rule.NOISE_SHARE`` σ² as within the noise of each
-        other; without it, σ is estimated from the training responses (``analysis.noise``; reported).
+        other; without it, σ is estimated from the training responses (``analysis.noise``) and capped by the
+        current model's training RMSE (both reported).
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
         ``identify_options``); else start from its current values.
     backend, method, substeps : simulator settings ("fast": compiled, cached per model structure).
@@ -242,8 +243,9 @@ class Loop:
         # the noise level the rule judges "within the noise" by: the user's, else estimated from the data
         estimate = noise_sd([r.y for r in self.train])
         self.noise = {"sd": o.noise_sd, "source": "given"} if o.noise_sd else {
-            "sd": estimate, "source": "estimated from the training responses' second differences (analysis.noise)"}
-        self.rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
+            "sd": estimate, "source": "estimated from the training responses' differences (analysis.noise), capped by "
+            "the current model's training RMSE"}
+        self.base_rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
         self.sim = o.sim
         self.model = nominal
         self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
@@ -265,6 +267,18 @@ class Loop:
         self._cross_cache: tuple[Fit, float] | None = None
 
     # -- helpers ---------------------------------------------------------------------------------------------
+
+    @property
+    def rule(self) -> Acceptance:
+        """The acceptance rule for the current model. An estimated noise level is capped by the current model's
+        training RMSE: a model that already leaves less than the estimate shows it too high (a response whose
+        own shape shows in its differences); a noise level the user gave is kept."""
+        rule = self.base_rule
+        if self.noise["source"] != "given" and self.fit is not None and rule.noise is not None:
+            rmse = math.sqrt(self.fit.sse / self.n_train)
+            if rmse < rule.noise:
+                return replace(rule, noise=rmse)
+        return rule
 
     def _bar(self, items, what: str, total: int | None = None):
         return progress_bar(items, what, total=total, enabled=self.options.progress)
@@ -534,7 +548,7 @@ class Loop:
             "validation": {"kind": o.validation, "on": self.score.scored, "rmse_before": self.val0,
                            "rmse_after": self.now.val, **parts(before=self.val0, after=self.now.val)},
             "refit": refitted,
-            "noise": {**self.noise, "floor_share": self.rule.share},
+            "noise": {**self.noise, "floor_share": self.rule.share, "sd_at_the_end": self.rule.noise},
             "records": {s: [r.name for r in rs] for s, rs in splits.items()},
             "wall_s": time.perf_counter() - self.start_time,
         }
