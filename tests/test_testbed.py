@@ -354,6 +354,7 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     assert by["asymmetric_friction_drift_damper"].category == "pair"
     assert by["asymmetric_viscous_damper"].category == "out_of_library"  # no direction-dependent damping
     assert by["cogging_rotary_damper"].category == "out_of_library"
+    assert by["clean_pressure_cubic_damper"].trends_ok and not by["clean_symmetric_damper"].trends_ok
     assert family("asymmetry", blind.case("asymmetric_viscous_damper")) is None
     for case in BLIND_CASES:
         records = case.records()

@@ -88,6 +88,7 @@ class Case:
     description: str = ""
     samples_per_cycle: str = ""
     noise_kind: str = "white"
+    trends_ok: bool = False  # a clean control whose base law's parameters follow a condition: trends are the truth
 
     def records(self):
         return self.make_records()

@@ -12,7 +12,8 @@ are passed. Per case (``run_case``):
 * single / pair / condition: found = every expected family has a member among the named effects, wrong =
   named effects in no expected family and any second member of one, ok_effect = found and nothing wrong;
   each key parameter fitted vs its truth (relative error, within its tolerance: ok_param);
-* clean: ok_effect = nothing added (neither an effect nor a trend or start state: the truth has neither);
+* clean: ok_effect = nothing added (neither an effect nor a trend or start state: the truth has neither; trends
+  are allowed where the truth's parameters follow a condition, ``Case.trends_ok``);
 * out_of_library: ok_effect = nothing named; flagged = ``report["unexplained"]["structure_flagged"]``
   (False when missing); ok needs both;
 * ok_rmse: held-out RMSE after discovery / noise sd ≤ ``RMSE_RATIO`` (1.2);
@@ -109,7 +110,8 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
                    ok_param=all(k["ok"] for k in keys))
         row["ok"] = row["ok_effect"] and row["ok_param"] and row["ok_rmse"]
     elif case.category == "clean":
-        row.update(found=None, wrong=named + trends, ok_effect=not named and not trends, ok_param=None)
+        wrong = named + ([] if case.trends_ok else trends)
+        row.update(found=None, wrong=wrong, ok_effect=not wrong, ok_param=None)
         row["ok"] = row["ok_effect"] and row["ok_rmse"]
     else:  # out_of_library
         row.update(found=None, wrong=named, ok_effect=not named, ok_param=None)
