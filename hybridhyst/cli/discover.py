@@ -138,7 +138,7 @@ def run(cfg: DictConfig) -> dict:
                        backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
                        leftover=str(d.leftover), validation=str(d.validation),
                        start_states=bool(d.start_states), progress=bool(cfg.progress), workers=_workers(d),
-                       cross_check=str(d.get("cross_check", "report")))
+                       cross_check=str(d.get("cross_check", "confirm")))
         result = discover(records, model, **options)
     check_discovery(result, keep_going=bool(cfg.get("keep_going", False)),
                     time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))

@@ -118,7 +118,7 @@ class Options:
     start_states: bool = True
     progress: bool = True
     workers: int = 1
-    cross_check: str = "report"
+    cross_check: str = "confirm"
 
     def check(self) -> None:
         from ..physics.effects import EFFECTS
@@ -145,7 +145,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
              fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
              method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
              validation: str = "records", start_states: bool = True, progress: bool = True,
-             workers: int = 1, cross_check: str = "report", torch_threads: int | None = 1) -> DiscoveryResult:
+             workers: int = 1, cross_check: str = "confirm", torch_threads: int | None = 1) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
@@ -193,12 +193,12 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         no noise level is known.
     workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
         fit's rows then run in its own thread). The fits and the result are the same for any number.
-    cross_check : "report" (default), "confirm" or "off". For every step the rule accepts, also measure the
+    cross_check : "confirm" (default), "report" or "off". For every step the rule accepts, also measure the
         out-of-sample error it did not judge (with ``validation="records"``, leave-one-condition-out over the
         training operating points; with ``"loco"``, the validation records'). When that error did not fall by the
-        margin too, the evidence disagrees: "report" keeps the step and says so in one line
-        (``result.disagreement_line``; report and terminal summary), "confirm" refuses it (why "report" is the
-        default: ``experiments/discovery_testbed``, "the cross-check as a veto"). A refit per training operating
+        margin too, the evidence disagrees: "confirm" refuses the step, "report" keeps it; either says so in one
+        line (``result.disagreement_line``; report and terminal summary). Why "confirm" is the default:
+        ``experiments/discovery_testbed``, "the cross-check: refuse or report". A refit per training operating
         point for each model compared; nothing with ``"both"`` (both errors judged for every candidate).
     torch_threads : torch intra-op threads during the run (restored after; None leaves them), as ``identify``.
 
