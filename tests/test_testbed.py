@@ -354,7 +354,13 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     assert by["asymmetric_friction_drift_damper"].category == "pair"
     assert by["asymmetric_viscous_damper"].category == "out_of_library"  # no direction-dependent damping
     assert by["cogging_rotary_damper"].category == "out_of_library"
-    assert by["clean_pressure_cubic_damper"].trends_ok and not by["clean_symmetric_damper"].trends_ok
+    assert by["clean_pressure_cubic_damper"].trends_ok == ("pressure_kpa",)
+    assert not by["clean_symmetric_damper"].trends_ok
+    from hybridhyst.testbed.run import score
+
+    clean = by["clean_pressure_cubic_damper"]
+    assert score(clean, _report([], trends=["trends~pressure_kpa"]), 1.0)["ok_effect"]
+    assert not score(clean, _report([], trends=["spring.k~amplitude"]), 1.0)["ok_effect"]
     assert family("asymmetry", blind.case("asymmetric_viscous_damper")) is None
     for case in BLIND_CASES:
         records = case.records()

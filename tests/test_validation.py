@@ -142,8 +142,9 @@ def test_both_scores_the_validation_records_and_the_training_groups_left_out_eac
 def test_with_both_a_trend_the_validation_records_cannot_see_is_not_accepted():
     """The validation record sits at the training pressures' mean, where the constant fit predicts as well as
     the trend: leave-one-condition-out alone accepts the trend (its cross-check, the validation records' error,
-    does not fall with it: reported by default, the step refused with ``cross_check="confirm"``), ``both`` does not (its validation part does
-    not fall), and says so part by part."""
+    does not fall with it: with ``cross_check="report"`` the step is kept and the disagreement said, with
+    ``"confirm"`` it is refused), ``both`` does not (its validation part does not fall), and says so part by
+    part."""
     records = _records((0.1, 0.15, 0.2, 0.3, 0.4))
     mean_p = float(np.mean([r.conditions["pressure_mpa"] for r in records]))
     val = _records((mean_p,), seed=3)

@@ -225,7 +225,9 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         ev = s["evidence"]
         refused = disagreement_line(s, unit) if (s.get("cross_check") or {}).get("refused") else None
         if refused:
-            lines += [f"The loop stopped at **{s['effect']}**, refused by its cross-check: {refused}.", ""]
+            what = (f"The condition trends **{s['effect']}** were refused by the cross-check" if s["kind"] == "trend"
+                    else f"The loop stopped at **{s['effect']}**, refused by its cross-check")
+            lines += [f"{what}: {refused}.", ""]
             continue
         if s.get("outcome") == "constant":
             lines += [f"The condition trends, **{s['effect']}**, changed nothing: fitted level by level, every "

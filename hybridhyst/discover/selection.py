@@ -63,7 +63,8 @@ def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | Non
 def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score, opts: dict, progress=None,
              rivals=None, settled=False) -> tuple[Fit, Judged, list[Change]]:
     """Remove or swap effects while the rule prefers the simpler model (``Acceptance.simpler``: a lower
-    information criterion, the out-of-sample error ``score(model, sim)`` raised by less than half the margin):
+    information criterion, the out-of-sample error ``score(model, sim)`` raised by less than half the margin or
+    within the noise; the rule as it stood for the model ``simplify`` started from):
     each round takes the qualifying alternative with the lowest criterion, until none qualifies. ``now``: how
     the rule sees ``fit``; ``opts``: ``lm_steps``, ``box_factor``, ``workers``. ``rivals`` (``{effect name:
     [library effect names]}``) adds swaps for another effect of the library (the loop passes each added effect's

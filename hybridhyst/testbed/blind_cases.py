@@ -137,7 +137,7 @@ def _case(fn) -> Case:
     # amplitude or frequency) has condition trends in its truth
     physical = set(spec.records[0]["conditions"]) - {"amplitude", "frequency_hz"}
     return Case(name=spec.name, category=category, expected=expected, keys=(), noise=float(spec.noise_sd),
-                trends_ok=category == "clean" and bool(physical),
+                trends_ok=tuple(sorted(physical)) if category == "clean" else (),
                 make_records=lambda: _records(fn()), make_nominal=lambda: _nominal(fn()), split=_split(spec),
                 description=f"[{', '.join(spec.effects) or 'clean'}; nominal {spec.base_law}] {spec.description}",
                 samples_per_cycle="–".join(f"{r} Hz" for r in (rates[0], rates[-1])) if len(rates) > 1

@@ -88,7 +88,8 @@ class Case:
     description: str = ""
     samples_per_cycle: str = ""
     noise_kind: str = "white"
-    trends_ok: bool = False  # a clean control whose base law's parameters follow a condition: trends are the truth
+    trends_ok: tuple[str, ...] = ()  # conditions a clean control's base-law parameters follow: their trend steps
+    # ("trends~<condition>") are the truth, not additions
 
     def records(self):
         return self.make_records()
