@@ -5,7 +5,7 @@ The loop is a ``Loop`` that holds its state (the current fit and how the rule se
 rejected and undone) and runs one method per phase, in this order (``discover``):
 
 1. ``nominal``: identify the nominal on the training records and converge its fit (the "before");
-2. ``trends("before effects")``: every constant parameter as a function of each condition with enough levels;
+2. ``trends``: every constant parameter as a function of each condition with enough levels;
 3. ``effects``: the greedy steps. Each candidate (a library effect, a one-parameter trend for a condition
    with few levels, a start state) is refitted with every coordinate free (its starting values as restarts of
    one batched Levenberg–Marquardt, the other coordinates from their fitted values, first re-balanced against
@@ -13,8 +13,8 @@ rejected and undone) and runs one method per phase, in this order (``discover``)
    best ``top`` the rule picks one on validation error and information criterion, and accepts it or stops;
 4. ``removals`` after every accepted change: each effect removed, or replaced by a special case (``selection``);
 5. ``swaps``: each added effect against the rivals it beat when it was added, on the final model;
-6. ``trends("after effects")``: the parameters of effects a swap put in, as functions of the conditions (an
-   effect a step accepts has them offered at once: ``trends_of_added``);
+6. ``trends_of_added``: the parameters of effects a swap put in, as functions of the conditions (an effect a
+   step accepts has them offered at once, by the same method);
 7. ``refit``: the chosen structure (and the nominal) refitted on training and validation records;
 8. ``leftover``: how much structure the residual still holds.
 
@@ -45,7 +45,7 @@ from .fitting import Fit, fit_candidate, polish, side_by_side, sse_at
 from .fitting import at as _at
 from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
 from .result import Change, DiscoveryResult, Step
-from .rule import Acceptance, Judged, information_criterion
+from .rule import Acceptance, Judged, check_criterion, information_criterion
 from .selection import simplify
 from .trends import MIN_LEVELS, fit_trends
 from .validation import Validation, condition_groups, improves, parts, record_metrics, rmse_on, simulated
@@ -123,8 +123,7 @@ class Options:
     def check(self) -> None:
         from ..physics.effects import EFFECTS
 
-        if self.criterion not in ("bic", "aic"):
-            raise ValueError(f"unknown information criterion {self.criterion!r}; choose 'bic' or 'aic'")
+        check_criterion(self.criterion)
         if self.cross_check not in CROSS_CHECK:
             raise ValueError(f"unknown cross_check {self.cross_check!r}; choose one of {list(CROSS_CHECK)}")
         if self.leftover not in LEFTOVER:
@@ -212,10 +211,10 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
     with intra_op_threads(torch_threads):
         loop = Loop(records, nominal, options)
         loop.nominal()
-        loop.trends("before effects")
+        loop.trends()
         loop.effects()
         loop.swaps()
-        loop.trends("after effects")
+        loop.trends_of_added()
         return loop.result()
 
 
@@ -242,10 +241,10 @@ class Loop:
         self.score = Validation(o.validation, self.train, self.val, lm_steps=o.lm_steps,
                                 box_factor=o.box_factor)  # refuses a bad kind
         # the noise level the rule judges "within the noise" by: the user's, else estimated from the data
-        estimate = noise_sd([r.y for r in self.train])
         self.noise = {"sd": o.noise_sd, "source": "given"} if o.noise_sd else {
-            "sd": estimate, "source": "estimated from the training responses' differences (analysis.noise), capped by "
-            "the current model's training RMSE"}
+            "sd": noise_sd([r.y for r in self.train]),
+            "source": "estimated from the training responses' differences (analysis.noise), capped by the current "
+                      "model's training RMSE"}
         self.base_rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
         self.sim = o.sim
         self.model = nominal
@@ -381,22 +380,17 @@ class Loop:
                 self.tried.add(g.effect)  # a removed or replaced effect is not offered again
         self.removed += gone
 
-    def trends(self, when: str) -> None:
-        """Offer every constant parameter (``"before effects"``) or those of the effects added and not offered
-        yet (``"after effects"``: an effect put in by a swap) as a function of each condition with enough levels,
-        one condition at a time."""
-        effects = None
-        if when == "after effects":
-            effects = set(self.fit.model.effects) - set(self.initial.effects) - self.trended
-            if not effects:
-                return
+    def trends(self) -> None:
+        """Offer every constant parameter as a function of each condition with enough levels, one condition at a
+        time."""
         for cond in self.trend_conditions:
-            self._trend(cond, when, effects)
+            self._trend(cond, "before effects", None)
 
-    def trends_of_added(self, before: set[str]) -> None:
-        """Right after an effect is accepted, its parameters' trends (and those of any effect put in by the
-        removals that followed): a level that rises with the condition is given its trend before the next step,
-        or the next step would add an element to stand in for it."""
+    def trends_of_added(self, before: set[str] = frozenset()) -> None:
+        """The trends of the parameters of effects added since the model had effects ``before`` (and not offered
+        them yet): right after an effect is accepted (with any the removals that followed put in), a level that
+        rises with the condition is given its trend before the next step, or the next step would add an element
+        to stand in for it; once more after the swaps, for the effects they put in."""
         added = set(self.fit.model.effects) - before - set(self.initial.effects) - self.trended
         if not added:
             return

@@ -43,12 +43,8 @@ class Step:
         evidence = {**self.evidence_details, "val_rmse_before": self.val_before, "val_rmse_after": self.val_after,
                     **parts(before=self.val_before, after=self.val_after),
                     f"{self.criterion}_before": self.ic_before, f"{self.criterion}_after": self.ic_after}
-        head = {"effect": self.effect, "kind": self.kind, "description": self.description}
-        if "when" in self.details:
-            head = {"effect": self.effect, "kind": self.kind, "when": self.details["when"],
-                    "description": self.description}
-        rest = {k: v for k, v in self.details.items() if k != "when"}
-        return {**head, **rest, "evidence": evidence, "parameters": self.parameters, "train_rmse": self.train_rmse,
+        return {"effect": self.effect, "kind": self.kind, "description": self.description, **self.details,
+                "evidence": evidence, "parameters": self.parameters, "train_rmse": self.train_rmse,
                 "val_rmse": self.val_rmse, "test_rmse": self.test_rmse, "accepted": self.accepted}
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from .validation import Score, errors, improves, within
 
-__all__ = ["Acceptance", "Judged", "NOISE_SHARE", "information_criterion"]
+__all__ = ["Acceptance", "Judged", "NOISE_SHARE", "check_criterion", "information_criterion"]
 
 NOISE_SHARE = 0.5  # models whose mean squared errors differ by at most this many σ² are within the noise
 
@@ -40,6 +40,12 @@ def information_criterion(sse: float, n: int, k: int, kind: str = "bic") -> floa
         return math.inf
     penalty = k * math.log(n) if kind == "bic" else 2 * k
     return n * math.log(sse / n) + penalty
+
+
+def check_criterion(kind: str) -> None:
+    """A one-line error for an information criterion other than "bic" or "aic"."""
+    if kind not in ("bic", "aic"):
+        raise ValueError(f"unknown information criterion {kind!r}; choose 'bic' or 'aic'")
 
 
 @dataclass(frozen=True)
@@ -70,9 +76,12 @@ class Acceptance:
         """Per error part: old² − new² (how much mean squared error ``new`` removes)."""
         return [o * o - n * n for n, o in zip(errors(new), errors(old), strict=True)]
 
+    def _within_noise(self, new, old) -> bool:
+        """Whether ``new`` adds at most the noise floor of mean squared error to ``old`` in every part."""
+        return all(-g <= self.floor for g in self._gains(new, old))
+
     def __post_init__(self):
-        if self.criterion not in ("bic", "aic"):
-            raise ValueError(f"unknown information criterion {self.criterion!r}; choose 'bic' or 'aic'")
+        check_criterion(self.criterion)
 
     def ic(self, fit) -> float:
         """The information criterion of a ``fitting.Fit`` (its training SSE and free coordinates)."""
@@ -86,13 +95,12 @@ class Acceptance:
     def simpler(self, new: Judged, old: Judged) -> bool:
         """Whether a simpler model ``new`` may replace ``old``: it loses at most half the margin, or stays within
         the noise of it."""
-        return new.ic < old.ic and (within(new.val, old.val, self.margin / 2)
-                                    or all(-g <= self.floor for g in self._gains(new.val, old.val)))
+        return new.ic < old.ic and (within(new.val, old.val, self.margin / 2) or self._within_noise(new.val, old.val))
 
     def pick(self, options: list[Judged]) -> int:
         """Index of the option the rule prefers (lowest error; within the margin or the noise of it, lowest
         criterion)."""
         best = min((o.val for o in options), key=lambda v: v.key if isinstance(v, Score) else float(v))
-        close = [i for i, o in enumerate(options) if within(o.val, best, self.margin)
-                 or all(-g <= self.floor for g in self._gains(o.val, best))]
+        close = [i for i, o in enumerate(options)
+                 if within(o.val, best, self.margin) or self._within_noise(o.val, best)]
         return min(close, key=lambda i: options[i].ic)

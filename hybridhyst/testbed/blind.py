@@ -119,6 +119,7 @@ class BlindCase:
     records: list[dict]
     held_out: list[str]
     validation: list[str]
+    noise_model: tuple = ("white",)  # ("white",), ("ar1", phi) or ("lowpass", order, cutoff fraction)
 
 
 # =============================================================================
@@ -580,6 +581,7 @@ def _build(name, spec_fn, effects, noise, nominal):
         records=records,
         held_out=list(spec["held_out"]),
         validation=list(spec["validation"]),
+        noise_model=tuple(spec["noise_model"]),
     )
 
 

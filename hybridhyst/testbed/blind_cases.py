@@ -141,12 +141,10 @@ def _case(fn) -> Case:
                 make_records=lambda: _records(fn()), make_nominal=lambda: _nominal(fn()), split=_split(spec),
                 description=f"[{', '.join(spec.effects) or 'clean'}; nominal {spec.base_law}] {spec.description}",
                 samples_per_cycle="–".join(f"{r} Hz" for r in (rates[0], rates[-1])) if len(rates) > 1
-                else f"{rates[0]} Hz", noise_kind=_noise_kind(spec.description))
+                else f"{rates[0]} Hz", noise_kind=NOISE_KINDS[spec.noise_model[0]])
 
 
-def _noise_kind(description: str) -> str:
-    text = description.lower()
-    return "AR(1)" if "ar(1)" in text else "low-pass" if "low-pass" in text else "white"
+NOISE_KINDS = {"white": "white", "ar1": "AR(1)", "lowpass": "low-pass"}
 
 
 BLIND_CASES: list[Case] = [_case(fn) for fn in blind.CASES]

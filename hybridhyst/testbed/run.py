@@ -64,6 +64,15 @@ def _lookup(coord: str, report: dict):
     return None, None
 
 
+def _path_entry(step: dict, noise: float) -> list:
+    """[effect, accepted, validation RMSE before / noise, after / noise, cross-check before, after] of a step."""
+    ev, cross = step["evidence"], step.get("cross_check") or {}
+    in_noise = [None if _number(ev[k]) is None else _number(ev[k]) / noise for k in ("val_rmse_before",
+                                                                                   "val_rmse_after")]
+    return [step["effect"], bool(step.get("accepted")), *in_noise, _number(cross.get("before")),
+            _number(cross.get("after"))]
+
+
 def score(case: Case, report: dict, wall_s: float) -> dict:
     """The row of one case from its discovery report."""
     steps = report.get("steps", [])
@@ -89,11 +98,7 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
            "keys": [], "error": None,
            # every step tried (accepted ones first), its validation RMSE before and after in units of the noise
            # (and, for accepted steps, the leave-one-condition-out cross-check before and after)
-           "path": [[s["effect"], bool(s.get("accepted")), *(_number(s["evidence"][k]) and
-                                                             _number(s["evidence"][k]) / case.noise
-                                                             for k in ("val_rmse_before", "val_rmse_after")),
-                     *[_number((s.get("cross_check") or {}).get(k)) for k in ("before", "after")]]
-                    for s in steps + report.get("rejected", [])]}
+           "path": [_path_entry(s, case.noise) for s in steps + report.get("rejected", [])]}
     if case.category in EFFECT_CATEGORIES:
         found = all(any(n in family for n in named) for family in case.expected)
         # named effects in no expected family, and a second member of one (two hysteretic elements for one)
