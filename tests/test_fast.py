@@ -59,9 +59,13 @@ EFFECT_VALUES = {
 }
 
 
+CONTROL_EFFECTS = {"control_lag", "control_saturation", "spencer_mr"}  # their cases: tests/test_controls.py
+
+
 def test_every_library_effect_has_a_fast_case():
-    physical = set(EFFECTS) - {"neural"}
-    assert set(EFFECT_VALUES) == physical  # a new effect must be added here (networks: tests/test_neural.py)
+    physical = set(EFFECTS) - {"neural"} - set(CONTROL_EFFECTS)
+    assert set(EFFECT_VALUES) == physical  # a new effect must be added here (networks: tests/test_neural.py,
+    # what acts on a control channel and Spencer's MR damper: tests/test_controls.py)
 
 
 def _every_effect(structure: str):

@@ -42,6 +42,9 @@ def _response(model):
     t = torch.linspace(0, 1.0, 301)
     u = torch.stack([torch.sin(2 * math.pi * t), 0.5 * torch.sin(3 * math.pi * t)]) * 0.1
     conditions = {c: LEVEL for c in conditions_used(model)}
+    for effect in model.effects.values():  # what acts on a control channel reads a signal
+        if hasattr(effect, "control"):
+            conditions[effect.control] = LEVEL + 0.2 * u / u.abs().max()
     return simulate(model, u, t, conditions=conditions, method="heun").detach()
 
 

@@ -133,7 +133,7 @@ def test_every_model_config_instantiates_and_simulates(path, float64):
 
     model = instantiate(OmegaConf.load(path)).double()
     t = torch.arange(50) * 1e-3
-    cond = {"pressure_mpa": torch.tensor([0.05])}
+    cond = {"pressure_mpa": torch.tensor([0.05]), "voltage": torch.linspace(0.0, 1.0, 50)[None]}  # (a control)
     y = simulate(model, 0.1 * torch.sin(2 * math.pi * t)[None], t=t, conditions=cond)
     assert y.shape == (1, 50, model.output_dim) and torch.isfinite(y).all()
     described = model.describe()

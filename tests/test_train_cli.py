@@ -43,7 +43,8 @@ def _options(group):
 STATE_DIMS = {
     "bouc_wen_classic": 1, "bouc_wen_p": 1, "coulomb_viscous": 0, "dahl_friction": 1, "lugre_friction": 1,
     "modified_bouc_wen": 1, "modified_bouc_wen_constant": 1, "vpptd_algebraic": 0, "vpptd_algebraic_linear": 0,
-    "mr_damper": 1, "boucwen_benchmark": 2 + 1, "linear_oscillator": 2, "piezo_attenuation": 2 + 1, "vpptd_rig": 2 + 1,
+    "mr_damper": 1, "mr_damper_voltage": 1 + 1, "mr_damper_spencer": 1 + 2, "boucwen_benchmark": 2 + 1,
+    "linear_oscillator": 2, "piezo_attenuation": 2 + 1, "vpptd_rig": 2 + 1,
 }
 
 

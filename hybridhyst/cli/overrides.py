@@ -258,7 +258,8 @@ def check_search_path(argv: list[str] | None = None) -> None:
     own settings: a ``# @package`` directive, a ``defaults`` list or a ``hydra`` key (callbacks, launchers,
     sweepers), which Hydra instantiates before any app code runs. A model config that an app writes into its run
     directory (``model/<name>.yaml``) has none of them; a folder of the user's own configs (not a run directory)
-    is the user's and is not checked."""
+    is the user's and is not checked. Hydra's own record of the run (``.hydra/``) is not a config group an override
+    can name (a group's name cannot start with a dot), so it is not read either."""
     import re
     from pathlib import Path
 
@@ -272,7 +273,8 @@ def check_search_path(argv: list[str] | None = None) -> None:
     for folder in folders:
         if not is_run_dir(folder):
             continue
-        for file in sorted([*folder.glob("*.yaml"), *folder.glob("*/*.yaml")]):
+        files = [*folder.glob("*.yaml"), *(f for f in folder.glob("*/*.yaml") if not f.parent.name.startswith("."))]
+        for file in sorted(files):
             text = file.read_text(encoding="utf-8", errors="replace")
             try:
                 top = yaml.safe_load(text)

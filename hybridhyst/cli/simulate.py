@@ -91,7 +91,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     frames, info = [], {}
     for r, p in zip(records, preds):
         y = p.cpu().numpy()
-        frame = pd.DataFrame({"record": r.name, "t": r.t, "u": r.x, "y": r.y})
+        frame = pd.DataFrame({"record": r.name, "t": r.t, "u": r.x, **r.controls, "y": r.y})
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)

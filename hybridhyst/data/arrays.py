@@ -114,11 +114,13 @@ def _substitute(mapping, rid: str):
 
     return replace(mapping, time=sub(mapping.time), input=sub(mapping.input), output=sub(mapping.output),
                    extra={k: sub(v) for k, v in mapping.extra.items()},
-                   conditions={k: sub(v) for k, v in mapping.conditions.items()})
+                   conditions={k: sub(v) for k, v in mapping.conditions.items()},
+                   controls={k: sub(v) for k, v in mapping.controls.items()})
 
 
 def _record_ids(arrays: dict, mapping, file: str) -> list[str] | None:
-    refs = [mapping.input, mapping.output, mapping.time, *mapping.extra.values(), *mapping.conditions.values()]
+    refs = [mapping.input, mapping.output, mapping.time, *mapping.extra.values(), *mapping.conditions.values(),
+            *mapping.controls.values()]
     refs = [r for r in refs if r is not None and PLACEHOLDER in r]
     if not refs:
         return None

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["RecordBatch", "numeric_conditions", "record_batches", "record_channel"]
+__all__ = ["RecordBatch", "numeric_conditions", "record_batches", "record_channel", "record_controls"]
 
 
 @dataclass
@@ -55,6 +55,18 @@ def numeric_conditions(records: Sequence, dtype=torch.float64) -> dict[str, torc
     return out
 
 
+def record_controls(records: Sequence, dtype=torch.float64) -> dict[str, torch.Tensor]:
+    """``{name: (R, T)}`` for every control channel all ``records`` (of one length) carry; one that only some
+    carry is an error (a model fitted to both would read it in some records and not in others)."""
+    names = sorted({k for r in records for k in r.controls})
+    lacking = {k: [r.name for r in records if k not in r.controls] for k in names}
+    for k, missing in lacking.items():
+        if missing:
+            raise ValueError(f"control channel {k!r} is missing from record(s) {missing[:5]}; give every record the "
+                             "same control channels (data.controls)")
+    return {k: torch.as_tensor(np.stack([r.controls[k] for r in records]), dtype=dtype) for k in names}
+
+
 def record_batches(records: Sequence, input_channels: Sequence[str] = ("x",),
                    dtype: torch.dtype = torch.float64) -> list[RecordBatch]:
     """Group ``records`` by length into batches (in order of first appearance)."""
@@ -68,5 +80,5 @@ def record_batches(records: Sequence, input_channels: Sequence[str] = ("x",),
         out.append(RecordBatch(index=idx, t=torch.as_tensor(np.stack([r.t for r in group]), dtype=dtype),
                                inputs=torch.as_tensor(inputs, dtype=dtype),
                                y=torch.as_tensor(np.stack([r.y for r in group]), dtype=dtype),
-                               conditions=numeric_conditions(group, dtype)))
+                               conditions={**numeric_conditions(group, dtype), **record_controls(group, dtype)}))
     return out

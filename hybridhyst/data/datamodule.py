@@ -42,15 +42,18 @@ def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
     return ", ".join(parts) or record.name
 
 
-def prepare_record(record: Record, factor: int = 1) -> dict[str, np.ndarray]:
-    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64)."""
+def prepare_record(record: Record, factor: int = 1, controls: Sequence[str] = ()) -> dict[str, np.ndarray]:
+    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64), and
+    ``controls`` ``(time, C)``: the record's control channels named ``controls``, in that order."""
     (r,) = decimate_all([record], factor, "training")
     t = np.asarray(r.t, dtype=np.float64) - float(r.t[0])
     u = np.asarray(r.x, dtype=np.float64)
     du = np.gradient(u, t, edge_order=2)
     ddu = np.gradient(du, t, edge_order=2)
     dddu = np.gradient(ddu, t, edge_order=2)
-    return {"t": t, "u": u, "du": du, "ddu": ddu, "dddu": dddu, "y": np.asarray(r.y, dtype=np.float64)}
+    ctl = np.stack([r.controls[c] for c in controls], axis=1) if controls else np.zeros((len(t), 0))
+    return {"t": t, "u": u, "du": du, "ddu": ddu, "dddu": dddu, "y": np.asarray(r.y, dtype=np.float64),
+            "controls": ctl}
 
 
 @dataclass
@@ -62,13 +65,17 @@ class Normaliser:
     sd: dict[str, float] = field(default_factory=dict)
 
     @classmethod
-    def fit(cls, prepared: Sequence[dict], conditions: Sequence[Sequence[float]], names: Sequence[str]):
+    def fit(cls, prepared: Sequence[dict], conditions: Sequence[Sequence[float]], names: Sequence[str],
+            controls: Sequence[str] = ()):
         if not prepared:
             raise ValueError("cannot fit a normaliser on no training records")
         mean, sd = {}, {}
         for key in ("t", "u", "du", "ddu", "y"):
             v = np.concatenate([p[key] for p in prepared])
             mean[key], sd[key] = float(v.mean()), float(v.std())
+        for j, name in enumerate(controls):  # control channels: over their samples
+            v = np.concatenate([p["controls"][:, j] for p in prepared])
+            mean[name], sd[name] = float(v.mean()), float(v.std())
         C = np.asarray(conditions, dtype=np.float64).reshape(len(prepared), len(names))
         for j, name in enumerate(names):
             mean[name], sd[name] = float(C[:, j].mean()), float(C[:, j].std())
@@ -115,7 +122,7 @@ class _Sequences(Dataset):
         i, s = self.items[k]
         p = self.prepared[i]
         e = len(p["t"]) if self.window is None else s + self.window
-        item = {key: torch.tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y")}
+        item = {key: torch.tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y", "controls")}
         mask = torch.ones(e - s, dtype=torch.float64)
         if self.window is not None and s > 0:
             mask[: self.warmup] = 0.0  # the state starts from rest: its first samples are not scored
@@ -155,7 +162,9 @@ class RecordDataModule(L.LightningDataModule):
     records : the ``RecordSet`` (or list of records).
     held_out, val : condition queries for the test and validation records (``RecordSet.split``), e.g.
         ``{"amplitude_in": [1.0]}``; None holds out nothing.
-    conditions : numeric conditions fed to networks and parameter functions (e.g. ``["tension_lb"]``).
+    conditions : numeric conditions fed to networks and parameter functions (e.g. ``["tension_lb"]``); a control
+        channel named here (``Record.controls``) reaches the networks at every sample (``batch["controls"]``
+        carries every control of the records, ``(batch, time, C)`` in the order of ``control_names``).
     window : training window length [samples on the thinned grid]; None trains on whole records.
     warmup : leading samples of each window (after the record's first) excluded from the loss.
     past : samples of (u, y) before each window given with it (``batch["past"]``, ``(batch, past, 2)``), for an
@@ -182,7 +191,13 @@ class RecordDataModule(L.LightningDataModule):
         if window is not None and (int(window) < 3 or int(warmup) >= int(window)):
             raise ValueError(f"window ({window}) must be >= 3 samples and longer than warmup ({warmup})")
         self.split = records.split(held_out=held_out, val=val)
-        self.condition_names = list(conditions)
+        self.control_names = sorted({k for r in records for k in r.controls})
+        lacking = [r.name for r in records if set(r.controls) != set(self.control_names)]
+        if lacking:
+            raise ValueError(f"records {lacking[:5]} lack some of the control channels {self.control_names}; give "
+                             "every record the same data.controls")
+        self.condition_names = [c for c in conditions if c not in self.control_names]
+        self.network_controls = [c for c in conditions if c in self.control_names]
         self.window = None if window is None else int(window)
         self.warmup, self.batch_size, self.num_workers = int(warmup), int(batch_size), int(num_workers)
         if int(past) < 0:
@@ -193,8 +208,8 @@ class RecordDataModule(L.LightningDataModule):
         self.label_conditions = label_conditions
         self.factors = decimation_factors(records, samples_per_cycle, downsample, frequency_condition,
                                           "datamodule.frequency_condition")
-        self.prepared = {name: [prepare_record(r, self.factors[r.name]) for r in getattr(self.split, name)]
-                         for name in ("train", "val", "test")}
+        self.prepared = {name: [prepare_record(r, self.factors[r.name], self.control_names)
+                                for r in getattr(self.split, name)] for name in ("train", "val", "test")}
         self.cond = {name: [self._condition_vector(r) for r in getattr(self.split, name)]
                      for name in ("train", "val", "test")}
         short = [(r.name, len(p["t"])) for r, p in zip(self.split.train, self.prepared["train"])
@@ -208,7 +223,7 @@ class RecordDataModule(L.LightningDataModule):
         self._train = self._make_train()
         kept = sorted({i for i, _ in self._train.items})  # records with at least one kept window
         self.normaliser = Normaliser.fit([self._kept_samples(i) for i in kept], [self.cond["train"][i] for i in kept],
-                                         self.condition_names)
+                                         self.condition_names, self.control_names)
 
     def _kept_samples(self, i: int) -> dict[str, np.ndarray]:
         """The samples of training record i covered by the kept windows (train_fraction < 1 sees only them)."""

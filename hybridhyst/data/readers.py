@@ -54,9 +54,11 @@ class ColumnMap:
     conditions: dict[str, str] = field(default_factory=dict)
     record: str | None = None
     fs: float | None = None
+    controls: dict[str, str] = field(default_factory=dict)
 
     @classmethod
-    def build(cls, time, input, output, conditions, record, extra, fs, where: str = "reading") -> ColumnMap:
+    def build(cls, time, input, output, conditions, record, extra, fs, where: str = "reading",
+              controls=None) -> ColumnMap:
         if time is None and fs is None:
             raise ValueError(f"{where}: give time= (the time column, data.time) or fs= (the sample rate in Hz, "
                              "data.fs: time = row / fs)")
@@ -67,16 +69,27 @@ class ColumnMap:
         if clash:
             raise ValueError(f"{where}: extra channel names {clash} (data.extra) are reserved for time/input/output; "
                              "rename them")
-        return cls(time, input, output, extra, conditions, record, None if fs is None else float(fs))
+        controls = _as_map(controls)
+        both = sorted(set(controls) & set(conditions))
+        if both:
+            raise ValueError(f"{where}: {both} given both as conditions (data.conditions, constant within a "
+                             "record) and as controls (data.controls, varying in time); name each in one of them")
+        clash = sorted(set(controls) & ({"t", "x", "y"} | set(extra)))
+        if clash:
+            raise ValueError(f"{where}: control names {clash} (data.controls) clash with a channel's; rename them")
+        return cls(time, input, output, extra, conditions, record, None if fs is None else float(fs), controls)
 
     def channels(self) -> dict[str, str | None]:
-        """``{channel: column}`` for t, x, y and the extra channels (t is None when derived from fs)."""
-        return {"t": self.time, "x": self.input, "y": self.output, **self.extra}
+        """``{channel: column}`` for t, x, y, the extra channels and the controls (``"control <name>"``; t is None
+        when derived from fs)."""
+        return {"t": self.time, "x": self.input, "y": self.output, **self.extra,
+                **{f"control {k}": c for k, c in self.controls.items()}}
 
     def roles(self) -> dict[str, str]:
         """``{column: role}`` of every referenced column, for messages."""
         roles = {c: f"{ch} channel" for ch, c in self.extra.items()}
         roles.update({c: f"condition {k!r}" for k, c in self.conditions.items()})
+        roles.update({c: f"control {k!r}" for k, c in self.controls.items()})
         roles.update({self.input: "input", self.output: "output"})
         if self.time is not None:
             roles[self.time] = "time"
@@ -86,7 +99,8 @@ class ColumnMap:
 
     def unit_channels(self) -> dict[str, str]:
         return {"t": "time", "x": f"input {self.input!r}", "y": f"output {self.output!r}",
-                **{k: f"extra {c!r}" for k, c in self.extra.items()}}
+                **{k: f"extra {c!r}" for k, c in self.extra.items()},
+                **{k: f"control {c!r}" for k, c in self.controls.items()}}
 
 
 def _as_map(value) -> dict[str, str]:
@@ -171,8 +185,9 @@ def _condition(frame: pd.DataFrame, column: str, where: str, noun: str):
         distinct = [v.item() if isinstance(v, np.generic) else v for v in pd.unique(values)[:5]]
         raise ValueError(
             f"{where}: condition {noun} {column!r} varies within the record (values {distinct}, first change at "
-            f"row {rows[changed][0]}); conditions must be constant per record: give a record column that "
-            "separates the records, or read this column as an extra channel instead"
+            f"row {rows[changed][0]}); conditions must be constant per record: if it is a control that varies "
+            f"in time (a voltage, a pressure schedule), name it in data.controls (controls=[{column!r}]) instead; "
+            "else give a record column that separates the records"
         )
     first = first.item() if isinstance(first, np.generic) else first
     if isinstance(first, str) and _NUMBER.match(first):
@@ -238,8 +253,9 @@ def _one_record(part: pd.DataFrame, mapping: ColumnMap, file: str, name: str, un
         )
     conditions = {key: _condition(part, column, where, noun) for key, column in mapping.conditions.items()}
     extra = {k: arrays[k] for k in mapping.extra}
+    controls = {k: arrays[f"control {k}"] for k in mapping.controls}
     return Record(name=name, t=arrays["t"], x=arrays["x"], y=arrays["y"], conditions=conditions,
-                  units=units, extra=extra, source=file)
+                  units=units, extra=extra, source=file, controls=controls)
 
 
 # -- public readers ----------------------------------------------------------------------------------------
@@ -260,7 +276,7 @@ def _collect(files: list[Path], per_file, name: str | None, default: str) -> Rec
 def read_table(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),
                record: str | None = None, units: dict | None = None, extra=None, name: str | None = None,
                fs: float | None = None, min_samples: int = 2, read_options: dict | None = None,
-               max_file_mb: float | None = MAX_FILE_MB) -> RecordSet:
+               max_file_mb: float | None = MAX_FILE_MB, controls=None) -> RecordSet:
     """Read csv/tsv/parquet files into a ``RecordSet``.
 
     Parameters
@@ -270,6 +286,8 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
         derives time as ``row / fs``.
     conditions : condition columns (list; the condition is named after the column) or
         ``{condition: column}``; each must be constant within a record.
+    controls : control columns that vary in time (a coil voltage, an underpressure schedule): a list or
+        ``{control: column}``, ``Record.controls``; a parameter function of one is evaluated at every step.
     record : column holding a record id: the file holds several records, in order of first appearance.
     units : ``{channel: unit}`` for "t", "x", "y" and extra channels, checked against ``KNOWN_UNITS``.
     extra : additional channels: a list of columns or ``{channel: column}`` (e.g. ``{"velocity": "v"}``).
@@ -286,7 +304,7 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
     RecordSet
         Float64 records; the file path is each record's ``source``.
     """
-    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}")
+    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}", controls)
     files = expand_files(path)
     units = check_units(units, f"file {str(path)!r}", mapping.unit_channels())
 
@@ -298,8 +316,8 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
 
 
 def _read_arrays(path, loader, time, input, output, conditions, record, units, extra, name, fs,
-                 min_samples) -> RecordSet:
-    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}")
+                 min_samples, controls=None) -> RecordSet:
+    mapping = ColumnMap.build(time, input, output, conditions, record, extra, fs, f"file {str(path)!r}", controls)
     files = expand_files(path)
     units = check_units(units, f"file {str(path)!r}", mapping.unit_channels())
 
@@ -320,7 +338,7 @@ def _checked(records: RecordSet, mapping: ColumnMap, noun: str) -> RecordSet:
 
 def read_npz(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),
              record: str | None = None, units: dict | None = None, extra=None, name: str | None = None,
-             fs: float | None = None, min_samples: int = 2) -> RecordSet:
+             fs: float | None = None, min_samples: int = 2, controls=None) -> RecordSet:
     """Read ``.npz`` files: the same mapping as ``read_table`` with array keys instead of columns.
 
     A key is a 1-D array (time,), ``"key[i]"`` (column i, 0-based, of an ``(time, C)`` array) or a
@@ -329,18 +347,20 @@ def read_npz(path, time: str | None = "t", input: str = "x", output: str = "y", 
     records ``train``, ``test_multisine``, ... from keys ``train_u``, ``train_y``, ...
     Arrays of different lengths are an error naming both keys. See ``read_table`` for the parameters.
     """
-    return _read_arrays(path, load_npz, time, input, output, conditions, record, units, extra, name, fs, min_samples)
+    return _read_arrays(path, load_npz, time, input, output, conditions, record, units, extra, name, fs, min_samples,
+                        controls)
 
 
 def read_mat(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),
              record: str | None = None, units: dict | None = None, extra=None, name: str | None = None,
-             fs: float | None = None, min_samples: int = 2) -> RecordSet:
+             fs: float | None = None, min_samples: int = 2, controls=None) -> RecordSet:
     """Read MATLAB ``.mat`` files (v4-v7.2, via ``scipy.io.loadmat``); keys as in ``read_npz``.
 
     Row and column vectors (1, N) / (N, 1) are both read as (N,). Structs are not unpacked: save the
     fields as top-level variables. v7.3 (HDF5) files are an error that says how to re-save them.
     """
-    return _read_arrays(path, load_mat, time, input, output, conditions, record, units, extra, name, fs, min_samples)
+    return _read_arrays(path, load_mat, time, input, output, conditions, record, units, extra, name, fs, min_samples,
+                        controls)
 
 
 READERS = {".csv": read_table, ".txt": read_table, ".tsv": read_table, ".parquet": read_table, ".pq": read_table,
@@ -350,7 +370,7 @@ READERS = {".csv": read_table, ".txt": read_table, ".tsv": read_table, ".parquet
 def read(path, **mapping) -> RecordSet:
     """Read any supported file (or glob pattern) by its extension: csv/tsv/txt/parquet, npz or mat.
 
-    ``mapping`` is passed on: ``time``, ``input``, ``output``, ``conditions``, ``record``, ``units``,
+    ``mapping`` is passed on: ``time``, ``input``, ``output``, ``conditions``, ``controls``, ``record``, ``units``,
     ``extra``, ``name``, ``fs``, ``min_samples`` (and ``read_options`` for tables).
     """
     suffix = re.sub(r"[*?\]]+$", "", Path(str(path)).suffix.lower())

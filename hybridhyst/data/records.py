@@ -130,7 +130,9 @@ class Record:
     extra channels) to unit strings. ``conditions`` maps condition names (e.g. ``pressure_mpa``,
     ``frequency_hz``) to numbers or strings. ``warmup``: leading samples that are simulated but not
     scored (a periodic steady-state record extended by its own last samples, so that a model started
-    from rest has settled when scoring begins). Validated on construction: a ``ValueError`` names the
+    from rest has settled when scoring begins). ``controls`` maps control channels to arrays ``(time,)``: operating
+    conditions that vary within the record (an MR damper's coil voltage, an underpressure schedule); a parameter
+    function of one is evaluated at every integration stage. Validated on construction: a ``ValueError`` names the
     record, the channel and the offending rows, and says how to fix it.
     """
 
@@ -143,12 +145,20 @@ class Record:
     extra: dict = field(default_factory=dict)
     source: str = ""
     warmup: int = 0
+    controls: dict = field(default_factory=dict)
 
     def __post_init__(self):
         where = f"record {self.name!r}" + (f" ({self.source})" if self.source else "")
-        arrays = validate_channels(where, {"t": self.t, "x": self.x, "y": self.y, **self.extra})
+        clash = sorted(set(self.controls) & (set(self.extra) | set(self.conditions) | {"t", "x", "y"}))
+        if clash:
+            raise ValueError(f"{where}: {clash} named both a control channel and a condition or channel; a control "
+                             "varies in time (data.controls), a condition is one value per record: give each once")
+        controls = {f"control {k}": v for k, v in self.controls.items()}
+        labels = {f"control {k}": f"control channel {k!r}" for k in self.controls}
+        arrays = validate_channels(where, {"t": self.t, "x": self.x, "y": self.y, **self.extra, **controls}, labels)
         self.t, self.x, self.y = arrays["t"], arrays["x"], arrays["y"]
         self.extra = {k: arrays[k] for k in self.extra}
+        self.controls = {k: arrays[f"control {k}"] for k in self.controls}
         self.conditions = {k: _plain(v) for k, v in dict(self.conditions).items()}
         self.units = {"t": "s", **dict(self.units)}
         self.warmup = int(self.warmup)
@@ -178,7 +188,7 @@ class Record:
         return Record(
             name=name or self.name, t=t, x=self.x[sl], y=self.y[sl], conditions=self.conditions,
             units=self.units, extra={k: v[sl] for k, v in self.extra.items()}, source=self.source,
-            warmup=min(warmup, max(len(t) - 1, 0)),
+            warmup=min(warmup, max(len(t) - 1, 0)), controls={k: v[sl] for k, v in self.controls.items()},
         )
 
     def with_noise(self, sd: float, seed) -> Record:
@@ -312,14 +322,15 @@ class RecordSet:
         return RecordSet([r for r, keep in zip(self.records, mask, strict=True) if keep], self.name)
 
     def to_frame(self) -> pd.DataFrame:
-        """Long table: one row per sample with columns record, t, x, y, extra channels and conditions.
+        """Long table: one row per sample with columns record, t, x, y, extra and control channels and conditions.
 
         ``frame.attrs["units"]`` holds the units of the first record. ``read_table(path,
         record="record", conditions=[...])`` reads a saved frame back.
         """
         frames = []
         for r in self.records:
-            cols = {"record": np.full(len(r), r.name, dtype=object), "t": r.t, "x": r.x, "y": r.y, **r.extra}
+            cols = {"record": np.full(len(r), r.name, dtype=object), "t": r.t, "x": r.x, "y": r.y, **r.extra,
+                    **r.controls}
             frame = pd.DataFrame(cols)
             for key, value in r.conditions.items():
                 frame[key] = value

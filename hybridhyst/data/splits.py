@@ -161,7 +161,18 @@ def check_conditions(split: Split, names: Sequence[str], what: str, min_train_va
     parts = {"training": list(split.train), "validation": list(split.val), "test": list(split.test)}
     every = [r for recs in parts.values() for r in recs]
     known = sorted({k for r in every for k, v in r.conditions.items() if _is_numeric(v)})
+    controls = sorted({k for r in every for k in r.controls})
     for name in names:
+        if name in controls:  # a control channel (data.controls): numbers at every sample
+            lacking = [r.name for r in every if name not in r.controls]
+            if lacking:
+                raise ValueError(f"{what}: control channel {name!r} is missing from {len(lacking)} of {len(every)} "
+                                 f"records ({', '.join(lacking[:5])}); give every record the same data.controls")
+            values = np.concatenate([r.controls[name] for r in parts["training"]] or [np.zeros(0)])
+            if min_train_values > 1 and not (len(values) and values.max() > values.min()):
+                raise ValueError(f"{what}: control {name!r} does not vary on the training records, too little to fit "
+                                 f"how the model depends on it; drop it from {what}")
+            continue
         lacking = [r.name for r in every if not _is_numeric(r.conditions.get(name))]
         if lacking:
             close = difflib.get_close_matches(str(name), known, n=1)
@@ -169,8 +180,10 @@ def check_conditions(split: Split, names: Sequence[str], what: str, min_train_va
             shown = ", ".join(lacking[:5]) + (f" and {len(lacking) - 5} more" if len(lacking) > 5 else "")
             usable = [k for k in known if all(_is_numeric(r.conditions.get(k)) for r in every)]
             if not any(name in r.conditions for r in every):
+                also = f", control channels: {controls}" if controls else (
+                    "; a signal that varies in time is read as a control channel: name its column in data.controls")
                 raise ValueError(f"{what}: no record has a condition {name!r}{hint}; numeric conditions of every "
-                                 f"record: {usable}")
+                                 f"record: {usable}{also}")
             raise ValueError(f"{what}: condition {name!r}{hint} is not a number in {len(lacking)} of {len(every)} "
                              f"records ({shown}); numeric conditions of every record: {usable}")
         values = _available(parts["training"], name)

@@ -17,13 +17,15 @@ from ..physics.effects import EFFECTS, Effect
 from ..physics.models import DrivenOscillator
 from ..physics.parameters import Constant, Linear
 
-__all__ = ["Candidate", "Scales", "condition_candidates", "effect_candidates", "library_candidates",
-           "start_candidates"]
+__all__ = ["Candidate", "Scales", "condition_candidates", "control_candidates", "effect_candidates",
+           "library_candidates", "start_candidates"]
 
 # Effects left out of the default candidate list: bouc_wen_normalised is seed 002's re-parametrisation of
 # bouc_wen (the same family twice would only split the evidence); the neural effect names no physical effect
 # (the loop measures the structure left with its own residual network instead).
-EXCLUDED = {"bouc_wen_normalised", "neural"}
+# not offered by name: a normalised duplicate, networks, and what acts on a control channel (offered per control the
+# records carry, ``control_candidates``) or is a whole device law (Spencer's MR damper)
+EXCLUDED = {"bouc_wen_normalised", "neural", "control_lag", "control_saturation", "spencer_mr"}
 
 
 @dataclass(frozen=True)
@@ -237,12 +239,43 @@ def start_candidates(model, scales: Scales) -> list[Candidate]:
     return out
 
 
+def control_candidates(model, scales: Scales, controls: Sequence[str]) -> list[Candidate]:
+    """One ``control_lag`` per control channel a parameter of ``model`` follows and no lag acts on yet: the control
+    reaches the parameters through a first-order lag (a coil's current behind its voltage). It starts at time
+    constants of 0.01, 0.1 and 1 times the data's time scale (``Scales.t``) and is searched from 1e-4 to 10 times
+    it; a lag much faster than the data is the model without it."""
+    from ..physics.effects import ControlLag
+    from ..physics.models import conditions_used
+
+    read = set(conditions_used(model))
+    lagged = {e.control for e in model.effects.values() if isinstance(e, ControlLag)}
+    out = []
+    for control in controls:
+        if control not in read or control in lagged:
+            continue
+        key = f"lag_{control}"
+        coord = f"{key}.eta"
+        bounds = {coord: (0.1 / scales.t, 1e4 / scales.t)}
+        starts = [{coord: f / scales.t} for f in (1.0, 10.0, 100.0)]
+
+        def build(m, key=key, control=control):
+            return _placed(m, key, ControlLag(control=control, eta=10.0 / scales.t).to(next(m.parameters()).dtype))
+
+        out.append(Candidate(name=f"control_lag~{control}", kind="effect", build_fn=build, free=[coord],
+                             bounds=bounds, starts=starts, describe=f"{control} reaches the parameters that follow "
+                             f"it through a first-order lag (du/dt = -eta (u - {control})).",
+                             meta={"key": key, "effect": "control_lag", "control": control}))
+    return out
+
+
 def library_candidates(model, scales: Scales, conditions: Mapping[str, Sequence[float]] | None = None,
-                       effects: Sequence[str] | None = None, start_states: bool = True) -> list[Candidate]:
-    """Every effect candidate (or those named in ``effects``), every condition candidate and (``start_states``)
-    every start-state candidate."""
+                       effects: Sequence[str] | None = None, start_states: bool = True,
+                       controls: Sequence[str] = ()) -> list[Candidate]:
+    """Every effect candidate (or those named in ``effects``), every condition candidate, (``start_states``)
+    every start-state candidate, and a lag of each of the ``controls`` a parameter follows."""
     out = effect_candidates(model, scales, effects)
     if conditions:
         out += condition_candidates(model, conditions)
+    out += control_candidates(model, scales, controls) if effects is None else []
     return out + (start_candidates(model, scales) if start_states else [])
 

@@ -81,7 +81,19 @@ def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
         raise ValueError(f"conditions must be true, false or a list of condition names, got {conditions!r}")
     check_conditions(parts, list(conditions), "discover conditions", min_train_values=2)
     values = _numeric_conditions(train)
-    return {c: values[c] for c in conditions}
+    return {c: values[c] for c in conditions if c in values}  # (the others are control channels: _controls)
+
+
+def _controls(conditions, train) -> dict[str, list[float]]:
+    """``{control: [lowest, highest]}`` over the training records of the control channels a parameter may follow:
+    every control the records carry (``conditions`` true) or those named; none with ``conditions`` false."""
+    if not conditions:
+        return {}
+    names = sorted({k for r in train for k in r.controls})
+    if not isinstance(conditions, bool):
+        names = [c for c in names if c in conditions]
+    return {c: [min(float(r.controls[c].min()) for r in train), max(float(r.controls[c].max()) for r in train)]
+            for c in names if all(c in r.controls for r in train)}
 
 
 def _parameters(model) -> dict:
@@ -254,6 +266,10 @@ class Loop:
         # one-parameter-at-a-time candidates
         self.trend_conditions = [c for c in cond_values if len(set(cond_values[c])) >= MIN_LEVELS]
         self.single_conditions = {c: v for c, v in cond_values.items() if c not in self.trend_conditions}
+        # control channels (data.controls): a parameter may follow one (judged on every sample, like an effect),
+        # and the control may lag (``control_lag``, offered once a parameter follows it)
+        self.controls = _controls(o.conditions, self.train)
+        self.single_conditions.update(self.controls)
         self.steps: list[Step] = []
         self.rejected: list[Step] = []
         self.removed: list[Change] = []
@@ -428,7 +444,7 @@ class Loop:
         o = self.options
         for _ in range(int(o.max_steps)):
             cands = [c for c in library_candidates(self.fit.model, self.scales, self.single_conditions, o.candidates,
-                                                   o.start_states) if c.name not in self.tried]
+                                                   o.start_states, self.controls) if c.name not in self.tried]
             if not cands or not self._effect_step(cands):
                 return
         self.stopped = "max_steps"  # every step accepted an effect: the cap ended the loop, not the rule
@@ -437,7 +453,7 @@ class Loop:
         """One step over ``cands``; whether a candidate was accepted."""
         o, fit = self.options, self.fit
         if o.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
-            _prebuild(cands, fit.model)
+            _prebuild(cands, fit.model, tuple(sorted(self.controls)))
         ranking = _fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
                                   int(o.workers), self._bar)
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
@@ -565,7 +581,7 @@ def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int
     return list(zip(cands, fits))
 
 
-def _prebuild(cands, model) -> None:
+def _prebuild(cands, model, controls: tuple[str, ...] = ()) -> None:
     """Build the candidates' compiled loops at once (one compiler per core); a candidate that cannot be built is
     left to its own fit, which skips it."""
     built = []
@@ -575,7 +591,7 @@ def _prebuild(cands, model) -> None:
         except (ValueError, RuntimeError):
             continue
     try:
-        prebuild_models(built)
+        prebuild_models(built, controls)
     except (ValueError, RuntimeError):
         pass
 

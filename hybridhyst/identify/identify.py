@@ -99,7 +99,8 @@ class RecordsProblem:
         _, t, U, _, cond = group
         N, R = X.shape[0], U.shape[0]
         return {"inputs": U.repeat(N, 1, 1), "t": t.repeat(N, 1), "values": self.space.values(X.to(U.dtype), cond, R),
-                "conditions": {k: v.repeat(N) for k, v in cond.items()} or None}  # (networks read the conditions)
+                "conditions": {k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()} or None}  # networks,
+        # controls
 
     def predict_groups(self, X: torch.Tensor) -> list[torch.Tensor]:
         """Responses ``(N, R_g, T_g)`` of each time-grid group for the population ``X (N, D)``."""

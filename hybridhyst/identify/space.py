@@ -45,6 +45,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -140,8 +141,13 @@ def _box(v: float, factor: float, signed: bool = False) -> tuple[float, float]:
 
 
 def condition_ranges(records) -> dict[str, tuple[float, float]]:
-    """``{condition: (lowest, highest)}`` over ``records`` for every numeric condition (the trend boxes)."""
-    return {k: (float(v.min()), float(v.max())) for k, v in numeric_conditions(records).items()}
+    """``{condition: (lowest, highest)}`` over ``records`` for every numeric condition and every control channel
+    (the trend boxes)."""
+    out = {k: (float(v.min()), float(v.max())) for k, v in numeric_conditions(records).items()}
+    for k in sorted({c for r in records for c in r.controls}):
+        values = [r.controls[k] for r in records if k in r.controls]
+        out[k] = (min(float(v.min()) for v in values), max(float(v.max()) for v in values))
+    return out
 
 
 def trend_scale(value: float, power: int, lo: float, hi: float) -> float | None:
@@ -200,7 +206,14 @@ def outside_domain(model: nn.Module, records) -> list[str]:
     with torch.no_grad():
         space = SearchSpace(model)
         conditions = numeric_conditions(records)
-        values = model.evaluate(conditions, len(records))
+        controls = [c for c in condition_ranges(records) if c not in conditions]
+        rows = len(records)
+        if controls:  # a function of a control: checked at each record's lowest and highest value (two rows each)
+            conditions = {k: v.repeat(2) for k, v in conditions.items()}
+            conditions.update({c: torch.tensor([float(f(r.controls.get(c, [math.nan]))) for f in (np.min, np.max)
+                                                for r in records], dtype=torch.float64) for c in controls})
+            rows *= 2
+        values = model.evaluate(conditions, rows)
     out = []
     for (key, pname), spec in space.domains.items():
         v = values[key][pname]
@@ -317,9 +330,14 @@ class SearchSpace(Box):
         for c in self.held:
             cols[(c.effect, c.param)][c.position] = X.new_full((N,), c.value)
         out: dict[str, dict[str, torch.Tensor]] = {}
+        follow = {k for k, v in (conditions or {}).items() if v.ndim == 2}
         for (key, pname), fn in self.functions.items():
             col = cols[(key, pname)]
             coords = torch.stack(col, dim=1) if col else X.new_zeros((N, 0))
+            if fn.condition in follow:  # a function of a control: its coordinates, evaluated at every step
+                out.setdefault(key, {}).update({pname + s: coords[:, i].repeat_interleave(R)
+                                                for i, s in enumerate(fn.suffixes())})
+                continue
             value = fn.evaluate_batch(coords, conditions, R).reshape(N * R)
             spec = self.domains.get((key, pname))
             if spec is not None:

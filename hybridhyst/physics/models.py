@@ -18,12 +18,13 @@ lists of expressions, the equations the compiled path differentiates and generat
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import torch
 from torch import nn
 
-from .effects.base import Effect, Kinematics, columns, zeros_like
+from .effects.base import Effect, Kinematics, columns, signals, zeros_like
 from .parameters import ParameterSpec, build_function, render_unit
 
 __all__ = ["Constitutive", "DrivenOscillator", "InputSample", "NominalModel"]
@@ -34,11 +35,13 @@ STRUCTURE = "structure"
 
 @dataclass(frozen=True)
 class InputSample:
-    """The input at one instant: value, rate and second rate, each ``(batch,)``."""
+    """The input at one instant: value, rate and second rate, each ``(batch,)``, and the control channels
+    ``{name: (batch,)}`` (``Record.controls``), interpolated like the input."""
 
     u: torch.Tensor
     du: torch.Tensor
     ddu: torch.Tensor
+    controls: Mapping = field(default_factory=dict)
 
 
 def _named_effects(effects) -> nn.ModuleDict:
@@ -97,8 +100,19 @@ class NominalModel(nn.Module):
     def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> Params:
         """All parameter values for a batch of operating conditions: {effect: {name: (batch,)}}."""
         out = {key: effect.evaluate(conditions, batch) for key, effect in self.effects.items()}
+        follow = signals(conditions)
+        for k, fn in self.structure_params.items():
+            if fn.condition in follow:
+                raise ValueError(f"the structure's {k} cannot follow the control {fn.condition!r}; make an effect's "
+                                 "parameter a function of it, or give it as a condition constant within each record")
         out[STRUCTURE] = {k: fn(conditions, batch) for k, fn in self.structure_params.items()}
         return out
+
+    def value_names(self, controls=()) -> dict[str, list[str]]:
+        """``{effect: names}`` of the per-row values ``evaluate`` returns when ``controls`` vary in time (the
+        structure's under ``"structure"``)."""
+        return {**{key: e.value_names(controls) for key, e in self.effects.items()},
+                STRUCTURE: list(self.structure_params)}
 
     def describe(self) -> dict[str, dict[str, dict[str, str]]]:
         """{effect: {parameter: {value, unit}}} with units rendered in the model's unit system."""
@@ -174,7 +188,10 @@ class NominalModel(nn.Module):
         return sum(delays) if delays else None
 
     # -- state --------------------------------------------------------------------------------------
-    def initial_state(self, P: Params, batch: int, base: torch.Tensor | None = None) -> torch.Tensor:
+    def initial_state(self, P: Params, batch: int, base: torch.Tensor | None = None,
+                      controls: Mapping | None = None) -> torch.Tensor:
+        """The state at the start: ``base`` (the structure's [x, v], else rest) and each effect's; ``controls``,
+        the control channels' first values ``{name: (batch,)}``, where a record has them."""
         ref = P[STRUCTURE] or next(iter(P.values()))
         ref = next(iter(ref.values())) if ref else torch.zeros(())
         parts = []
@@ -182,7 +199,7 @@ class NominalModel(nn.Module):
             if base is None:
                 base = torch.zeros(batch, self.base_state_dim, dtype=ref.dtype, device=ref.device)
             parts.append(base.to(ref.dtype))
-        parts += [e.initial_state(P[k], batch) for k, e in self.effects.items() if e.state_dim]
+        parts += [e.initial_state(P[k], batch, controls) for k, e in self.effects.items() if e.state_dim]
         if not parts:
             return torch.zeros(batch, 0, dtype=ref.dtype, device=ref.device)
         return torch.cat(parts, dim=1)
@@ -212,7 +229,7 @@ class NominalModel(nn.Module):
         for key, effect in self.effects.items():
             lo, hi = self._offsets[key]
             s = state[:, lo:hi]
-            p = P[key]
+            p = effect.instant(P[key], kin.controls)
             stand_in = substitute(key, effect, p, kin, s) if substitute is not None else None
             if stand_in is not None:
                 f, r = stand_in
@@ -270,7 +287,7 @@ class Constitutive(NominalModel):
 
     @staticmethod
     def _kinematics(inp: InputSample) -> Kinematics:
-        return Kinematics(x=inp.u, v=inp.du, u=inp.u, du=inp.du, a=inp.ddu)
+        return Kinematics(x=inp.u, v=inp.du, u=inp.u, du=inp.du, a=inp.ddu, controls=inp.controls)
 
     def kinematics(self, state, inp):
         return self._kinematics(inp)
@@ -337,7 +354,7 @@ class DrivenOscillator(NominalModel):
         x, v = state[:, 0], state[:, 1]
         if self.excitation == "base":
             x, v = x - inp.u, v - inp.du
-        return Kinematics(x=x, v=v, u=inp.u, du=inp.du, a=zeros_like(x))
+        return Kinematics(x=x, v=v, u=inp.u, du=inp.du, a=zeros_like(x), controls=inp.controls)
 
     def _acceleration(self, force, mass, inp, P):
         m = P[STRUCTURE]["mass"] if mass is None else P[STRUCTURE]["mass"] + mass

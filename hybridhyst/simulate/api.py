@@ -11,9 +11,10 @@ import numpy as np
 import torch
 import torch.autograd.forward_ad as fwAD
 
+from ..physics.effects.base import signals
 from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
-from .inputs import delayed, with_rates
+from .inputs import delayed, input_sample, with_controls, with_rates
 
 __all__ = ["jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
 
@@ -29,7 +30,9 @@ def _model_dtype(model) -> torch.dtype:
     return torch.get_default_dtype()
 
 
-def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Tensor] | None:
+def _as_conditions(conditions, batch: int, dtype, device, time: int | None = None) -> dict[str, torch.Tensor] | None:
+    """Numeric conditions as tensors: ``(batch,)`` for one value per row, ``(batch, time)`` for a control channel
+    (a signal sampled with the input)."""
     if conditions is None:
         return None
     out = {}
@@ -41,24 +44,31 @@ def _as_conditions(conditions, batch: int, dtype, device) -> dict[str, torch.Ten
                             dtype=dtype, device=device)
         if v.ndim == 0:
             v = v.expand(batch)
-        if v.shape != (batch,):
+        if v.ndim == 2 and time is not None and v.shape[1] == time:
+            v = v.expand(batch, -1)
+            if not bool(torch.isfinite(v).all()):
+                raise ValueError(f"control {key!r} contains NaN/inf; clean the control channel first")
+        elif v.shape != (batch,):
             raise ValueError(
-                f"condition {key!r} has shape {tuple(v.shape)}; give a scalar or one value per batch row ({batch})"
+                f"condition {key!r} has shape {tuple(v.shape)}; give a scalar, one value per batch row ({batch}) or, "
+                f"for a control channel, one value per row and sample ({batch}, {time})"
             )
         out[key] = v
     return out
 
 
 def _check_values(model, values, batch: int, conditions=None):
-    """Validate explicit per-row parameter values against the model's parameter names; an effect without
-    parameters (a network) evaluates its own inputs from the conditions."""
+    """Validate explicit per-row parameter values against the model's parameter names (a parameter that follows
+    a control channel: its function's coordinates, ``Effect.value_names``); an effect without parameters (a
+    network) evaluates its own inputs from the conditions."""
     out = {}
+    expected = model.value_names(signals(conditions))
     for key in list(model.effects) + ["structure"]:
         if key != "structure" and not model.effects[key].params and key not in values:
             out[key] = model.effects[key].evaluate(conditions, batch)
             continue
         given = values.get(key, {})
-        names = list(model.effects[key].params) if key != "structure" else list(model.structure_params)
+        names = expected[key]
         missing = [n for n in names if n not in given]
         if missing:
             raise ValueError(f"values for {key!r} miss parameter(s) {missing}")
@@ -106,7 +116,9 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         one ``(time, output_dim)`` tensor per record.
     t : sample times [s], strictly increasing: ``(time,)`` shared by every row or ``(batch, time)``, one grid
         per row (records with their own timestamps); or give ``dt`` for a uniform grid from 0.
-    conditions : {name: scalar or (batch,)} operating conditions for parameter functions.
+    conditions : {name: scalar or (batch,)} operating conditions for parameter functions, or ``(batch, time)`` for a
+        control channel sampled with the input (``Record.controls``): it is interpolated inside the sample
+        intervals like the input, and a parameter function of it is evaluated at every stage.
     initial_state : ``(batch, 2)`` initial [x, ẋ] of an oscillator, or the full ``(batch, state_dim)``.
     method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4"; default "rk4") and
         sub-steps per sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq
@@ -138,13 +150,14 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     dtype = _model_dtype(model)
     u, t = _prepare(inputs, t, dt, dtype)
     B = u.shape[0]
-    cond = _as_conditions(conditions, B, dtype, u.device)
+    cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
     P = model.evaluate(cond, B) if values is None else _check_values(model, values, B, cond)
     U = with_rates(u, t)
     tau = model.input_delay(P)
     if tau is not None:
         U = delayed(U, t, tau)
-    state0 = _initial_state(model, P, B, initial_state, dtype, u.device)
+    U, controls = with_controls(U, cond)
+    state0 = _initial_state(model, P, B, initial_state, dtype, u.device, _first(cond, controls))
 
     if backend not in ("reference", "fast"):
         raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
@@ -154,9 +167,9 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         from .fast import simulate_fast
 
         return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
-                             return_states=return_states)
+                             return_states=return_states, controls=controls)
     if solver == "fixed":
-        states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps)
+        states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps, controls=controls)
     elif solver == "torchdiffeq":
         if t.ndim != 1:
             raise ValueError("solver='torchdiffeq' integrates every row on one time grid; give t as (time,) or "
@@ -167,10 +180,10 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         if values is not None:
             raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
         states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=rtol, atol=atol,
-                                    adjoint=adjoint, options=options)
+                                    adjoint=adjoint, options=options, controls=controls)
     else:
         raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
-    y = _outputs(model, states, U, P)
+    y = _outputs(model, states, U, P, controls)
     return (y, states) if return_states else y
 
 
@@ -213,13 +226,15 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     dtype = _model_dtype(model)
     u, t = _prepare(inputs, t, dt, dtype)
     B = u.shape[0]
-    cond = _as_conditions(conditions, B, dtype, u.device)
+    cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
     P = _check_values(model, values, B, cond)
     if not jacobian_covers(model):
         raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it) or "
                          "networks")
-    keys = list(compiled(model)[0].param_keys)
-    s0 = model.initial_state(P, B)
+    U, controls = with_controls(with_rates(u, t), cond)
+    keys = list(compiled(model, controls)[0].param_keys)
+    first = _first(cond, controls)
+    s0 = model.initial_state(P, B, controls=first)
     n = len(keys)
     ds0 = s0.new_zeros(B, s0.shape[1], n)
     if n and s0.shape[1]:  # the initial state's derivatives: forward-mode AD, each parameter in its own B rows
@@ -230,10 +245,11 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
                 e = torch.zeros(n, B, dtype=dtype, device=u.device)
                 e[j] = 1.0
                 rows[k][name] = fwAD.make_dual(rows[k][name], e.reshape(-1))
-            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, n * B)).tangent
+            first_n = {c: v.repeat(n) for c, v in (first or {}).items()}
+            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, n * B, controls=first_n)).tangent
         if tangent is not None:
             ds0 = tangent.reshape(n, B, -1).permute(1, 2, 0).contiguous()
-    y, dy = tangent_fast(model, with_rates(u, t), t, P, s0, ds0, method=method or "rk4", substeps=substeps)
+    y, dy = tangent_fast(model, U, t, P, s0, ds0, method=method or "rk4", substeps=substeps, controls=controls)
     return y, dy, keys
 
 
@@ -265,30 +281,33 @@ def _prepare(inputs, t, dt, dtype):
     return u, t
 
 
-def _initial_state(model, P, batch, initial_state, dtype, device):
+def _first(cond, controls) -> dict | None:
+    """The control channels' first values ``{name: (batch,)}`` (where a lag starts), or None without controls."""
+    return {c: cond[c][:, 0] for c in controls} if controls else None
+
+
+def _initial_state(model, P, batch, initial_state, dtype, device, controls=None):
     if initial_state is None:
-        return model.initial_state(P, batch)
+        return model.initial_state(P, batch, controls=controls)
     s0 = torch.as_tensor(initial_state, dtype=dtype, device=device)
     if s0.ndim == 1:
         s0 = s0.expand(batch, -1)
     if s0.shape[1] == model.state_dim and model.state_dim != model.base_state_dim:
         return s0
     if s0.shape[1] == model.base_state_dim:
-        return model.initial_state(P, batch, base=s0)
+        return model.initial_state(P, batch, base=s0, controls=controls)
     raise ValueError(
         f"initial_state has {s0.shape[1]} columns; give {model.base_state_dim} "
         f"(the structure's [x, v]) or {model.state_dim} (the full state)"
     )
 
 
-def _outputs(model, states, U, P):
+def _outputs(model, states, U, P, controls=()):
     """Outputs for all samples in one vectorised call: (batch, time) flattened into rows."""
-    from ..physics.models import InputSample
-
     B, T, S = states.shape
-    Uf = U.reshape(B * T, 3)
+    Uf = U.reshape(B * T, U.shape[-1])
     Pf = {k: {n: v.repeat_interleave(T) for n, v in d.items()} for k, d in P.items()}
-    y = model.output(states.reshape(B * T, S), InputSample(Uf[:, 0], Uf[:, 1], Uf[:, 2]), Pf)
+    y = model.output(states.reshape(B * T, S), input_sample(Uf, controls), Pf)
     return y.reshape(B, T, -1)
 
 

@@ -36,8 +36,10 @@ def state_bounds(model, P, state0) -> tuple[torch.Tensor, torch.Tensor] | None:
     return torch.stack(lo, dim=1), torch.stack(hi, dim=1)
 
 
-def integrate_fixed(model, U, t, P, state0, method: str = "rk4", substeps: int = 1) -> torch.Tensor:
-    """States at every sample time, ``(batch, time, state_dim)``."""
+def integrate_fixed(model, U, t, P, state0, method: str = "rk4", substeps: int = 1,
+                    controls: tuple[str, ...] = ()) -> torch.Tensor:
+    """States at every sample time, ``(batch, time, state_dim)``; ``U (batch, time, 3 + C)`` carries the C control
+    channels named ``controls`` after the input and its rates."""
     if method not in TABLEAUX:
         raise ValueError(f"unknown fixed-step method {method!r}; choose one of {sorted(TABLEAUX)}")
     if int(substeps) < 1:
@@ -60,7 +62,7 @@ def integrate_fixed(model, U, t, P, state0, method: str = "rk4", substeps: int =
                 for i, aji in enumerate(a[j]):
                     if aji:
                         y = y + (h * aji) * ks[i]
-                ks.append(model.derivative(y, lerp_sample(Uk, Uk1, (s + c[j]) / S), P))
+                ks.append(model.derivative(y, lerp_sample(Uk, Uk1, (s + c[j]) / S, controls), P))
             incr = sum((bj * kj for bj, kj in zip(b, ks) if bj), torch.zeros_like(state))
             state = state + h * incr
             if bounds is not None:  # projection onto the states' bounds (exact rate-independent operators)

@@ -73,10 +73,21 @@ def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor
     return torch.where(before & rates_mask, torch.zeros_like(out), out)
 
 
-def sample(U: torch.Tensor, k: int) -> InputSample:
-    return InputSample(U[:, k, 0], U[:, k, 1], U[:, k, 2])
+def input_sample(v: torch.Tensor, controls: tuple[str, ...] = ()) -> InputSample:
+    """The input at one instant from a row ``(batch, 3 + C)``: u, u̇, ü, then the C control channels named
+    ``controls`` (``with_controls``)."""
+    return InputSample(v[:, 0], v[:, 1], v[:, 2], {c: v[:, 3 + i] for i, c in enumerate(controls)})
 
 
-def lerp_sample(Uk: torch.Tensor, Uk1: torch.Tensor, frac: float) -> InputSample:
-    v = Uk + (Uk1 - Uk) * frac
-    return InputSample(v[:, 0], v[:, 1], v[:, 2])
+def lerp_sample(Uk: torch.Tensor, Uk1: torch.Tensor, frac: float, controls: tuple[str, ...] = ()) -> InputSample:
+    return input_sample(Uk + (Uk1 - Uk) * frac, controls)
+
+
+def with_controls(U: torch.Tensor, conditions: dict | None) -> tuple[torch.Tensor, tuple[str, ...]]:
+    """The input ``(batch, time, 3)`` with the control channels among ``conditions`` (the ``(batch, time)``
+    ones, in sorted order) as further columns, interpolated inside the sample intervals like the input; and
+    their names."""
+    names = tuple(sorted(k for k, v in (conditions or {}).items() if v.ndim == 2))
+    if not names:
+        return U, ()
+    return torch.cat([U, torch.stack([conditions[c].to(U) for c in names], dim=-1)], dim=-1), names

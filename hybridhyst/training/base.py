@@ -54,7 +54,7 @@ class SequenceModule(L.LightningModule):
 
     kind = "base"
 
-    def __init__(self, normaliser: dict, condition_names: Sequence[str] = (),
+    def __init__(self, normaliser: dict, condition_names: Sequence[str] = (), control_names: Sequence[str] = (),
                  network_conditions: Sequence[str] | None = None, features: Sequence[str] = ("t", "u", "du"),
                  lr: float = 1e-3, weight_decay: float = 0.0,
                  loss: str = "mse", lambda_phys: float = 0.0, units: dict | None = None,
@@ -74,11 +74,12 @@ class SequenceModule(L.LightningModule):
             raise ValueError(f"lambda_phys must be >= 0, got {lambda_phys}")
         self.norm = Normaliser.from_dict(normaliser)
         self.condition_names = list(condition_names)
+        self.control_names = list(control_names)
         self.network_conditions = list(self.condition_names if network_conditions is None else network_conditions)
-        unknown = [c for c in self.network_conditions if c not in self.condition_names]
+        unknown = [c for c in self.network_conditions if c not in [*self.condition_names, *self.control_names]]
         if unknown:
             raise ValueError(f"network condition(s) {unknown} are not among the batch's conditions "
-                             f"{self.condition_names}")
+                             f"{self.condition_names} or controls {self.control_names}")
         self.feature_names = list(features)
         self.lr, self.weight_decay, self.loss_kind = float(lr), float(weight_decay), loss
         self.nominal_lr = float(lr if nominal_lr is None else nominal_lr)
@@ -104,13 +105,19 @@ class SequenceModule(L.LightningModule):
             ch.update(u=inputs.u, du=inputs.du, ddu=inputs.ddu)
         cols = [self.norm.scale(name, ch[name]) for name in self.feature_names]
         T = cols[0].shape[1] if cols else batch["t"].shape[1]
-        cols += [c[:, None].expand(-1, T) for c in self.condition_features(batch)]
+        cols += [c[:, None].expand(-1, T) if c.ndim == 1 else c for c in self.condition_features(batch)]
         return torch.stack(cols, dim=-1).to(self.dtype)
 
     def condition_features(self, batch) -> list[torch.Tensor]:
-        """Each condition the networks read, normalised: one ``(batch,)`` tensor per condition."""
-        return [self.norm.scale(name, batch["cond"][:, self.condition_names.index(name)].to(self.dtype))
-                for name in self.network_conditions]
+        """Each condition the networks read, normalised: one ``(batch,)`` tensor per condition, ``(batch, time)``
+        per control channel."""
+        out = []
+        for name in self.network_conditions:
+            if name in self.control_names:
+                out.append(self.norm.scale(name, batch["controls"][..., self.control_names.index(name)].to(self.dtype)))
+            else:
+                out.append(self.norm.scale(name, batch["cond"][:, self.condition_names.index(name)].to(self.dtype)))
+        return out
 
     @property
     def y_scale(self) -> float:
@@ -313,10 +320,14 @@ class NominalMixin:
             p.requires_grad_(bool(trainable))
 
     def conditions(self, batch, rows: int | None = None) -> dict[str, torch.Tensor]:
+        """The conditions of a batch for the simulator: ``(batch,)`` per condition, ``(batch, time)`` per control
+        channel; with ``rows``, each repeated to ``rows`` (the controls only where they are not signals)."""
         cond = {name: batch["cond"][:, j].to(self.dtype) for j, name in enumerate(self.condition_names)}
         if rows is not None:
             reps = rows // batch["cond"].shape[0]
             cond = {k: v.repeat_interleave(reps) for k, v in cond.items()}
+        elif self.control_names:
+            cond.update({c: batch["controls"][..., j].to(self.dtype) for j, c in enumerate(self.control_names)})
         return cond
 
     def _initial_state(self, batch, model=None):
@@ -337,7 +348,8 @@ class NominalMixin:
             self._fit_state_scale(batch, model, s0)
         past = batch["past"].to(self.dtype)
         feats = [self.norm.scale("u", past[..., 0]), self.norm.scale("y", past[..., 1])]
-        feats += [c[:, None] for c in self.condition_features(batch)]
+        feats += [(c if c.ndim == 1 else c[:, 0])[:, None] for c in self.condition_features(batch)]  # (controls: at
+        # the window's start)
         offset = self.encoder(torch.cat(feats, dim=1)) * self.state_scale
         return s0 + torch.where(inside[:, None], offset, torch.zeros_like(offset))
 
@@ -368,9 +380,13 @@ class NominalMixin:
         ``{"effect.param@pressure_mpa=0.03": value}`` (trajectories, TensorBoard, metrics.json)."""
         out, varying = {}, []
         for e, params in self.nominal.parameter_table().items():
+            fns = self.nominal.effects[e].params if e in self.nominal.effects else self.nominal.structure_params
             for p, info in params.items():
+                fn = fns[p]
                 if isinstance(info["value"], (int, float)):
                     out[f"{e}.{p}"] = float(info["value"])
+                elif fn.condition in self.control_names:  # a function of a control: its coefficients
+                    out.update({f"{e}.{p}{c.suffix}": c.value for c in fn.coordinates()})
                 else:
                     varying.append((e, p))
         levels = self._training_conditions()
@@ -415,7 +431,8 @@ class NominalMixin:
         m = batch["mask"].reshape(-1) > 0
         B, T = batch["u"].shape
         rows = {k: batch[k].reshape(-1)[m].to(self.dtype) for k in ("t", "u", "du", "ddu", "dddu")}
-        cond = {k: v.repeat_interleave(T)[m] for k, v in self.conditions(batch).items()}
+        cond = {k: (v.reshape(-1) if v.ndim == 2 else v.repeat_interleave(T))[m]
+                for k, v in self.conditions(batch).items()}
         P = (self.nominal if model is None else model).evaluate(cond, int(m.sum()))
         if detach:
             P = {e: {n: v.detach() for n, v in ps.items()} for e, ps in P.items()}
@@ -458,6 +475,12 @@ def _col(inp):
 def _flat_cond(batch, m):
     T = batch["u"].shape[1]
     return batch["cond"].repeat_interleave(T, dim=0)[m]
+
+
+def _flat_controls(batch, m):
+    """The control channels at the masked collocation rows, ``(rows, 1, C)`` (each row a one-sample window)."""
+    c = batch["controls"]
+    return c.reshape(c.shape[0] * c.shape[1], c.shape[-1])[m][:, None, :]
 
 
 def load_nominal_state(path) -> dict:

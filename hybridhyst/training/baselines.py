@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import torch
 
 from ..nets import build_net
-from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond
+from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond, _flat_controls
 from .losses import pinn_physics_residual, taylor_inputs
 
 __all__ = ["LSTMModule", "MLPModule", "StdPINNModule"]
@@ -96,6 +96,7 @@ class StdPINNModule(NominalMixin, SequenceModule):
         tau = torch.zeros_like(rows["t"], requires_grad=True)
         inp = taylor_inputs(rows["u"], rows["du"], rows["ddu"], tau, rows["dddu"])
         one = {k: v[:, None] for k, v in rows.items()}
-        feats = self.features({**one, "cond": _flat_cond(batch, m)}, inputs=_col(inp), t=(rows["t"] + tau)[:, None])
+        feats = self.features({**one, "cond": _flat_cond(batch, m), "controls": _flat_controls(batch, m)},
+                              inputs=_col(inp), t=(rows["t"] + tau)[:, None])
         y, S = self._outputs(feats)
         return pinn_physics_residual(self.nominal, P, S[:, 0], y[:, 0], inp, tau, self.rate_scale, self.y_scale)

@@ -74,9 +74,9 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     if kind not in MODULES:
         raise ValueError(f"unknown module {kind!r}; choose from {sorted(MODULES)}")
     loss, net = cfg.loss, cfg.residual
-    network = [c for c in dm.condition_names if c in (cfg.datamodule.get("conditions") or [])]
+    network = [c for c in [*dm.condition_names, *dm.control_names] if c in (cfg.datamodule.get("conditions") or [])]
     common = {"normaliser": dm.normaliser.to_dict(), "condition_names": dm.condition_names,
-              "network_conditions": network, "units": dm.units,
+              "control_names": dm.control_names, "network_conditions": network, "units": dm.units,
               "lr": float(cfg.trainer.lr), "weight_decay": float(cfg.trainer.weight_decay), "loss": loss.kind,
               "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
               "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.lr_schedule),

@@ -22,7 +22,16 @@ from torch.nn.utils import parametrize
 from ..nets import build_net
 from ..physics.effects import NeuralEffect
 from ..physics.models import DrivenOscillator
-from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond, load_nominal_state, neural_scales
+from .base import (
+    InputSampleOf,
+    NominalMixin,
+    SequenceModule,
+    _col,
+    _flat_cond,
+    _flat_controls,
+    load_nominal_state,
+    neural_scales,
+)
 from .baselines import LSTMModule, MLPModule, StdPINNModule
 from .losses import constant_values, hybrid_physics_residual, parameter_prior, taylor_inputs
 
@@ -177,7 +186,8 @@ class HybridModule(NominalMixin, SequenceModule):
         tau = torch.zeros_like(rows["t"], requires_grad=True)
         inp = taylor_inputs(rows["u"], rows["du"], rows["ddu"], tau, rows["dddu"])
         one = {k: v[:, None] for k, v in rows.items()}
-        feats = self.features({**one, "cond": _flat_cond(batch, m)}, inputs=_col(inp), t=(rows["t"] + tau)[:, None])
+        feats = self.features({**one, "cond": _flat_cond(batch, m), "controls": _flat_controls(batch, m)},
+                              inputs=_col(inp), t=(rows["t"] + tau)[:, None])
         return tau, inp, self.net(feats)[:, 0, 0] * self.y_scale
 
     def physics_loss(self, batch, out):

@@ -11,6 +11,8 @@ from .base import Kinematics as Kinematics
 from .bouc_wen import BoucWenHysteresis as BoucWenHysteresis
 from .bouc_wen_p import BoucWenNormalised as BoucWenNormalised
 from .clearance import Clearance as Clearance
+from .control_lag import ControlLag as ControlLag
+from .control_saturation import ControlSaturation as ControlSaturation
 from .coulomb import Coulomb as Coulomb
 from .cubic_stiffness import CubicStiffness as CubicStiffness
 from .dahl import Dahl as Dahl
@@ -19,6 +21,7 @@ from .linear_stiffness import LinearStiffness as LinearStiffness
 from .lugre import LuGre as LuGre
 from .maxwell import Maxwell as Maxwell
 from .neural import NeuralEffect as NeuralEffect
+from .spencer import SpencerMR as SpencerMR
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
 from .travel_drift import TravelDrift as TravelDrift
@@ -44,6 +47,9 @@ EFFECTS: dict[str, type[Effect]] = {
         Attenuation,
         TimeDelay,
         TravelDrift,
+        ControlLag,
+        ControlSaturation,
+        SpencerMR,
         NeuralEffect,
     )
 }
@@ -56,6 +62,8 @@ __all__ = [
     "BoucWenHysteresis",
     "BoucWenNormalised",
     "Clearance",
+    "ControlLag",
+    "ControlSaturation",
     "Coulomb",
     "CubicStiffness",
     "Dahl",
@@ -65,6 +73,7 @@ __all__ = [
     "LinearStiffness",
     "LuGre",
     "Maxwell",
+    "SpencerMR",
     "NeuralEffect",
     "Stribeck",
     "TimeDelay",

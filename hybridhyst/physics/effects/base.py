@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import torch
@@ -39,6 +40,8 @@ class Kinematics:
         the relative or absolute coordinate for a ``DrivenOscillator``), after input operators.
     u, du : the raw input (excitation or drive) and its rate.
     a : acceleration of the excitation (used by inertia in a ``Constitutive`` model).
+    controls : the control channels at this instant, ``{name: (batch,)}`` (a coil's voltage, an underpressure
+        schedule: ``Record.controls``), as the effects before this one left them (a lag, a saturation).
     """
 
     x: torch.Tensor
@@ -46,9 +49,19 @@ class Kinematics:
     u: torch.Tensor
     du: torch.Tensor
     a: torch.Tensor
+    controls: Mapping = field(default_factory=dict)
 
     def moved(self, x: torch.Tensor, v: torch.Tensor) -> Kinematics:
         return replace(self, x=x, v=v)
+
+    def with_control(self, name: str, value) -> Kinematics:
+        """These kinematics with control ``name`` replaced by ``value`` for the effects after this one."""
+        return replace(self, controls={**self.controls, name: value})
+
+
+def signals(conditions) -> set[str]:
+    """The names of the conditions that vary in time: ``(batch, time)`` tensors among ``conditions``."""
+    return {k for k, v in (conditions or {}).items() if isinstance(v, torch.Tensor) and v.ndim == 2}
 
 
 # Elementary functions used by every effect. With torch tensors they compute the reference path; with
@@ -192,13 +205,36 @@ class Effect(nn.Module):
                 self.add_parameter(pname, spec.default if value is None else value, spec, fixed=pname in fixed)
 
     # -- parameters -------------------------------------------------------------------------------
-    def value_names(self) -> list[str]:
-        """Names of the per-row values ``evaluate`` returns (the parameters; a network's conditions)."""
-        return list(self.params)
+    def value_names(self, controls=()) -> list[str]:
+        """Names of the per-row values ``evaluate`` returns (the parameters; a network's conditions). A parameter
+        that follows one of the ``controls`` passes its function's coordinates instead (``alpha.c0``,
+        ``alpha.c1``): its value is taken at every instant (``instant``)."""
+        return [name for pname, fn in self.params.items()
+                for name in ([pname + s for s in fn.suffixes()] if fn.condition in controls else [pname])]
 
     def evaluate(self, conditions: dict[str, torch.Tensor] | None, batch: int) -> dict[str, torch.Tensor]:
-        """Parameter values for a batch: name -> ``(batch,)`` tensor."""
-        return {pname: fn(conditions, batch) for pname, fn in self.params.items()}
+        """Parameter values for a batch: name -> ``(batch,)`` tensor. A parameter that is a function of a control
+        signal (a ``(batch, time)`` condition) gives its coordinates, ``value_names``."""
+        follow = signals(conditions)
+        out = {}
+        for pname, fn in self.params.items():
+            if fn.condition in follow:
+                coords = fn.coordinate_values()
+                out.update({pname + s: v.expand(batch) for s, v in zip(fn.suffixes(), coords)})
+            else:
+                out[pname] = fn(conditions, batch)
+        return out
+
+    def instant(self, p: dict, controls: Mapping) -> dict:
+        """``p`` with every parameter that follows a control evaluated at this instant's ``controls``."""
+        if not controls:
+            return p
+        out = None
+        for pname, fn in self.params.items():
+            if fn.condition in controls and pname not in p:
+                out = dict(p) if out is None else out
+                out[pname] = fn.at([p[pname + s] for s in fn.suffixes()], controls[fn.condition])
+        return p if out is None else out
 
     def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
         """The unit of parameter ``pname`` with the model's ``units`` (``{"F": "Nm", "x": "deg"}``)."""
@@ -223,9 +259,10 @@ class Effect(nn.Module):
                 for pname, fn in self.params.items()}
 
     # -- contributions (defaults: contributes nothing) --------------------------------------------
-    def initial_state(self, p: dict[str, torch.Tensor], batch: int) -> torch.Tensor:
+    def initial_state(self, p: dict[str, torch.Tensor], batch: int, controls: Mapping | None = None) -> torch.Tensor:
         """The state at the start of a record, ``(batch, state_dim)``: the ``start`` parameters where the effect
-        has them, else 0."""
+        has them, else 0. ``controls``: the control channels' first values ``{name: (batch,)}`` (a lag starts
+        there)."""
         ref = next(iter(p.values())) if p else torch.zeros(())
         if self.start and all(name in p for name in self.start):
             return torch.stack([p[name].expand(batch) for name in self.start], dim=1)

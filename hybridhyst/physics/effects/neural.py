@@ -15,7 +15,7 @@ import torch
 
 from ...nets import build_net, parse_hidden
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics
+from .base import Effect, Kinematics, signals
 
 __all__ = ["NeuralEffect"]
 
@@ -109,8 +109,8 @@ class NeuralEffect(Effect):
                                  zip(self.condition_names, self.condition_mean.tolist(), self.condition_sd.tolist())}
         return options
 
-    def value_names(self) -> list[str]:
-        return [f"@{c}" for c in self.condition_names]
+    def value_names(self, controls=()) -> list[str]:
+        return [f"@{c}" for c in self.condition_names if c not in controls]
 
     # conditions reach the force and rate like parameter values: normalised, one (batch,) tensor each
     def evaluate(self, conditions, batch):
@@ -119,8 +119,9 @@ class NeuralEffect(Effect):
         missing = [c for c in self.condition_names if not conditions or c not in conditions]
         if missing:
             raise ValueError(f"the neural effect reads condition(s) {missing}; give them to simulate (conditions=)")
+        follow = signals(conditions)  # a control signal is read at every instant (features)
         return {f"@{c}": (conditions[c] - self.condition_mean[j]) / self.condition_sd[j]
-                for j, c in enumerate(self.condition_names)}
+                for j, c in enumerate(self.condition_names) if c not in follow}
 
     def features(self, p, kin: Kinematics, state) -> list:
         """The network's inputs at one instant, normalised: ``(batch,)`` tensors, or sympy expressions when
@@ -130,7 +131,12 @@ class NeuralEffect(Effect):
         scale = self.input_scale.tolist() if symbolic else self.input_scale
         cols = [channels[k] / scale[j] for j, k in enumerate(self.inputs)]
         cols += [state[:, j] for j in range(self.state_dim)]
-        for c in self.condition_names:
+        for j, c in enumerate(self.condition_names):
+            if c in kin.controls:
+                mean, sd = (self.condition_mean.tolist()[j], self.condition_sd.tolist()[j]) if symbolic else \
+                    (self.condition_mean[j], self.condition_sd[j])
+                cols.append((kin.controls[c] - mean) / sd)
+                continue
             if f"@{c}" not in p:
                 raise ValueError(f"the neural effect reads condition {c!r}; simulate with conditions=, not values=")
             cols.append(p[f"@{c}"])
@@ -152,7 +158,7 @@ class NeuralEffect(Effect):
         self._last = (kin, state, out)
         return out
 
-    def initial_state(self, p, batch):
+    def initial_state(self, p, batch, controls=None):
         ref = self.force_scale
         return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
 

@@ -129,6 +129,21 @@ class ParameterFunction(nn.Module):
             getattr(self, self._own).clamp_(min=lower if math.isfinite(lower) else None,
                                             max=upper if math.isfinite(upper) else None)
 
+    # -- following a control signal ---------------------------------------------------------------------
+    def suffixes(self) -> list[str]:
+        """The names of the coordinates, appended to the parameter's (``".c0"``, ``".y0"``): the values a
+        function of a control signal passes to the simulator in its place (``Effect.evaluate``)."""
+        return [c.suffix for c in self.coordinates()]
+
+    def at(self, coords: list, c):
+        """The value at one instant from the coordinates ``coords`` (one entry per coordinate: ``(batch,)``
+        tensors or sympy symbols) and the control's value ``c`` there: how a function of a control channel
+        (``Record.controls``) is evaluated at every integration stage, on both backends. Functions of a level
+        (per-condition values, a network) cannot follow a signal."""
+        raise ValueError(f"a {type(self).__name__} parameter function cannot follow the control signal "
+                         f"{self.condition!r}: give it as linear, polynomial or exponential in {self.condition!r}, "
+                         "or use a condition constant within each record")
+
     def _c(self, conditions, batch: int, like: torch.Tensor) -> torch.Tensor:
         """The condition ``(1, batch)`` in ``like``'s dtype."""
         return _condition_tensor(conditions, self.condition, like).expand(batch)[None]

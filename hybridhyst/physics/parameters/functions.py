@@ -30,6 +30,15 @@ __all__ = [
 ]
 
 
+def _exp(x):
+    """exp of a tensor, or of a sympy expression (a function of a control inside the compiled equations)."""
+    if isinstance(x, torch.Tensor):
+        return torch.exp(x)
+    import sympy
+
+    return sympy.exp(x)
+
+
 class Constant(ParameterFunction):
     """Same value for every condition, constrained by the parameter's spec."""
 
@@ -90,8 +99,13 @@ class Polynomial(ParameterFunction):
         return FunctionCoordinate(f".c{index}", value, power=index)
 
     def evaluate_batch(self, coords, conditions, batch):
-        c = self._c(conditions, batch, coords)
-        return sum(coords[:, i:i + 1] * c**i for i in range(coords.shape[1]))
+        return self.at([coords[:, i:i + 1] for i in range(coords.shape[1])], self._c(conditions, batch, coords))
+
+    def at(self, coords, c):
+        value = coords[0]
+        for i in range(1, len(coords)):
+            value = value + coords[i] * c**i
+        return value
 
     def describe(self) -> str:
         terms = [f"{float(a):+.6g}·{self.condition}^{i}" for i, a in enumerate(self.coeffs.detach())]
@@ -133,8 +147,11 @@ class _Exponential(ParameterFunction):
         raise NotImplementedError
 
     def evaluate_batch(self, coords, conditions, batch):
-        y0, a, b = coords[:, 0:1], coords[:, 1:2], coords[:, 2:3]
-        return y0 + a * self._shape(b * self._c(conditions, batch, coords))
+        return self.at([coords[:, 0:1], coords[:, 1:2], coords[:, 2:3]], self._c(conditions, batch, coords))
+
+    def at(self, coords, c):
+        y0, a, b = coords
+        return y0 + a * self._shape(b * c)
 
     _form = "{y0} + {a}·f({b}·{c})"
 
@@ -155,7 +172,7 @@ class ExpRise(_Exponential):
 
     @staticmethod
     def _shape(bc):
-        return 1 - torch.exp(-bc)
+        return 1 - _exp(-bc)
 
 
 class ExpDecay(_Exponential):
@@ -165,7 +182,7 @@ class ExpDecay(_Exponential):
 
     @staticmethod
     def _shape(bc):
-        return torch.exp(-bc)
+        return _exp(-bc)
 
 
 class ExpGrowth(_Exponential):
@@ -175,7 +192,7 @@ class ExpGrowth(_Exponential):
 
     @staticmethod
     def _shape(bc):
-        return torch.exp(bc)
+        return _exp(bc)
 
 
 class PerCondition(ParameterFunction):

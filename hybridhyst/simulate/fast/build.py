@@ -94,7 +94,7 @@ def compile_equations(eq: Equations) -> Compiled:
         digest = hashlib.sha1(" ".join([*_FLAGS, src]).encode()).hexdigest()[:16]
         lib = _build(src, digest)
         _write(index, digest)
-    module = Compiled(lib, len(eq.state), len(eq.params), len(eq.outputs))
+    module = Compiled(lib, len(eq.state), len(eq.params), len(eq.outputs), len(eq.inputs))
     with _LOCK:
         return _MODULES.setdefault(key, module)
 
@@ -141,10 +141,10 @@ def _pointer(a: np.ndarray) -> int:
     return a.ctypes.data
 
 
-def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_out: int) -> None:
+def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_out: int, NI: int) -> None:
     """The loops index raw memory: every array float64, C-contiguous and of the shape they assume."""
-    shapes = {"U": (B, T, 3), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
-              "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, 3), "gs0": (B, S), "ds0": (B, S, P),
+    shapes = {"U": (B, T, NI), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
+              "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, NI), "gs0": (B, S), "ds0": (B, S, P),
               "dy": (B, T, n_out, P)}
     for key, a in arrays.items():
         if a.dtype != np.float64 or not a.flags.c_contiguous or a.shape != shapes.get(key, a.shape):
@@ -158,9 +158,9 @@ class Compiled:
     """One model's built loops: ``forward``, ``backward`` and ``tangent`` over numpy float64 arrays (the
     layout of ``loops.c``), with the rows of a batch spread over threads (ctypes releases the GIL)."""
 
-    def __init__(self, path: Path, n_state: int, n_param: int, n_out: int):
+    def __init__(self, path: Path, n_state: int, n_param: int, n_out: int, n_in: int = 3):
         self.path = path
-        self.S, self.P, self.O = n_state, n_param, n_out
+        self.S, self.P, self.O, self.NI = n_state, n_param, n_out, n_in
         lib = ctypes.CDLL(str(path))
         L, V = ctypes.c_long, ctypes.c_void_p
         self._fns = {}
@@ -172,11 +172,11 @@ class Compiled:
 
     def _run(self, name: str, B: int, T: int, arrays_before: dict, nst: int, tableau: list, sub: int,
              arrays_after: dict, NT: int) -> None:
-        _check(name, {**arrays_before, **arrays_after}, B, T, NT, self.S, self.P, self.O)
+        _check(name, {**arrays_before, **arrays_after}, B, T, NT, self.S, self.P, self.O, self.NI)
         c, A, bw = tableau
         if not (c.shape == bw.shape == (nst,) and A.shape == (nst, nst)) or int(sub) < 1:
             raise ValueError(f"compiled {name}: a tableau of {nst} stages and sub >= 1, got {A.shape}, sub {sub}")
-        _check(name, {"c": c, "A": A, "bw": bw}, B, T, NT, self.S, self.P, self.O)
+        _check(name, {"c": c, "A": A, "bw": bw}, B, T, NT, self.S, self.P, self.O, self.NI)
         arrays_before, arrays_after = list(arrays_before.values()), list(arrays_after.values())
         fn = self._fns[name]
         ptrs_before = [_pointer(a) for a in arrays_before]
@@ -204,7 +204,7 @@ class Compiled:
             f.result()
 
     def forward(self, U, h, th, s0, c, A, bw, sub, states, y):
-        """States at the sample times and outputs: U (B,T,3), h (B,T-1), th (B,NT), s0 (B,S)."""
+        """States at the sample times and outputs: U (B,T,NI), h (B,T-1), th (B,NT), s0 (B,S)."""
         self._run("forward", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0}, c.shape[0], [c, A, bw],
                   sub, {"states": states, "y": y}, th.shape[1])
 

@@ -1,11 +1,11 @@
 """Generate and compile (C, the system compiler) the integration loops of one model with exact discrete adjoints.
 
-For a model with S states, P parameters and O outputs, the generated C file holds the kernels
-``rhs(s, u, du, ddu, th, f, buf)`` and ``rhs_jac(..., f, fs, fth, fin, buf)`` (values and Jacobians w.r.t.
-state, parameters and inputs), the same pair for the outputs, the state bounds, and then the loops of
-``loops.c``: ``forward``, ``backward`` (the exact adjoint of the discrete explicit Runge–Kutta map on the
-sample grid with sub-steps — the same numbers as autograd through the reference loop) and ``tangent`` (the
-same map's forward sensitivities w.r.t. every parameter in one pass: whole Jacobians for
+For a model with S states, P parameters, O outputs and NI inputs (u, u̇, ü and the control channels),
+the generated C file holds the kernels ``rhs(s, in, th, f, buf)`` and ``rhs_jac(..., f, fs, fth, fin, buf)``
+(values and Jacobians w.r.t. state, parameters and inputs), the same pair for the outputs, the state bounds,
+and then the loops of ``loops.c``: ``forward``, ``backward`` (the exact adjoint of the discrete explicit
+Runge–Kutta map on the sample grid with sub-steps — the same numbers as autograd through the reference loop)
+and ``tangent`` (the same map's forward sensitivities w.r.t. every parameter in one pass: whole Jacobians for
 Levenberg–Marquardt). ``runtime.c`` comes first: the non-smooth functions and the MLP kernels.
 
 A network inside the equations is a small MLP kernel (``_mlp_forward``) over its weights, which follow the
@@ -50,8 +50,7 @@ class _Printer(C99CodePrinter):
 
 _ACTIVATIONS = {"tanh": 0, "relu": 1, "gelu": 2, "silu": 3, "elu": 4}  # codes of _act / _dact in runtime.c
 # the kernels' arguments and their C types
-_ARGS = {"s": "const double *s", "u": "double u", "du": "double du", "ddu": "double ddu", "th": "const double *th",
-         "w": "const double *w"}
+_ARGS = {"s": "const double *s", "in": "const double *in", "th": "const double *th", "w": "const double *w"}
 
 
 def _buffer_layout(eq: Equations) -> tuple[list[tuple[int, int, int, int]], int]:
@@ -94,6 +93,7 @@ def _kernel(name: str, args: list[str], targets: list[tuple[str, sp.Expr]], prin
     lines = [f"static inline void {name}({signature}) {{"]
     lines += head or []
     lines += [f"    const double {s} = s[{i}];" for i, s in enumerate(eq.state)]
+    lines += [f"    const double {u} = in[{i}];" for i, u in enumerate(eq.inputs)]
     lines += [f"    const double {p} = th[{i}];" for i, p in enumerate(eq.params)]
     if "buf" in args:
         lines += _network_lines(eq, printer, evaluate, set().union(*(e.free_symbols for e in exprs)))
@@ -110,13 +110,13 @@ def _jac(exprs, wrt, name: str) -> list[tuple[str, sp.Expr]]:
 
 
 def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
-    """``name(s, u, du, ddu, th, w, lam, gth, gin, buf)``: the networks' part of the adjoint of ``exprs``
+    """``name(s, in, th, w, lam, gth, gin, buf)``: the networks' part of the adjoint of ``exprs``
     (the right-hand side or the outputs) weighted by ``w``, with the networks' layers in ``buf`` (written by
     ``rhs_jac`` / ``out_jac`` at the same point): adds to ``lam`` (the state's adjoint), ``gth`` (the
-    parameters' and the weights') and ``gin`` (u, du, ddu). ``rhs_jac`` / ``out_jac`` hold the rest of the
-    Jacobians, with every network's outputs held: together they are the full chain rule."""
-    args = ["s", "u", "du", "ddu", "th", "w", "lam", "gth", "gin", "buf"]
-    n_s, n_p = len(eq.state), len(eq.params)
+    parameters' and the weights') and ``gin`` (the inputs: u, du, ddu, controls). ``rhs_jac`` / ``out_jac`` hold
+    the rest of the Jacobians, with every network's outputs held: together they are the full chain rule."""
+    args = ["s", "in", "th", "w", "lam", "gth", "gin", "buf"]
+    n_s, n_p, n_i = len(eq.state), len(eq.params), len(eq.inputs)
     head, targets, tail = [], [], []
     for k, net in enumerate(eq.networks):
         dfdn = _jac(exprs, net.outputs, f"dfdn{k}")
@@ -126,12 +126,12 @@ def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
         head += [f"    double dfdn{k}[{len(exprs) * n_out}] = {{0}};",
                  f"    double dins{k}[{max(n_in * n_s, 1)}] = {{0}};",
                  f"    double dinth{k}[{max(n_in * n_p, 1)}] = {{0}};",
-                 f"    double dinin{k}[{n_in * 3}] = {{0}};"]
+                 f"    double dinin{k}[{n_in * n_i}] = {{0}};"]
         targets += dfdn
         targets += _jac(net.inputs, eq.state, f"dins{k}")
         targets += _jac(net.inputs, eq.params, f"dinth{k}")
         targets += _jac(net.inputs, eq.inputs, f"dinin{k}")
-        tail.append(f"    _network_vjp(w, {len(exprs)}, dfdn{k}, dins{k}, {n_s}, dinth{k}, {n_p}, dinin{k}, th, "
+        tail.append(f"    _network_vjp(w, {len(exprs)}, dfdn{k}, dins{k}, {n_s}, dinth{k}, {n_p}, dinin{k}, {n_i}, th, "
                     f"{net.offset}, W{k}, {n_layers}, {_ACTIVATIONS[net.activation]}, Z{k}, A{k}, {max(net.widths)}, "
                     "lam, gth, gin);")
     targets = [(t, e) for t, e in targets if e != 0]  # the arrays start at zero
@@ -142,7 +142,7 @@ def generate_source(eq: Equations) -> str:
     """The C source of one model: runtime, sizes, the model's kernels, loops."""
     printer = _Printer()
     n_state, n_param, n_out = len(eq.state), len(eq.params), len(eq.outputs)
-    args = ["s", "u", "du", "ddu", "th"]
+    args = ["s", "in", "th"]
     f_t = [(f"f[{i}]", e) for i, e in enumerate(eq.rhs)]
     g_t = [(f"g[{i}]", e) for i, e in enumerate(eq.outputs)]
     f_full = f_t + _jac(eq.rhs, eq.state, "fs") + _jac(eq.rhs, eq.params, "fth") + _jac(eq.rhs, eq.inputs, "fin")
@@ -157,7 +157,8 @@ def generate_source(eq: Equations) -> str:
     parts = [
         "/* Generated by hybridhyst.simulate.fast.codegen — do not edit. */",
         RUNTIME,
-        f"#define S {n_state}\n#define P {n_param}\n#define O {n_out}\n#define HAS_BOUNDS {int(eq.lower is not None)}\n"
+        f"#define S {n_state}\n#define P {n_param}\n#define O {n_out}\n#define NI {len(eq.inputs)}\n"
+        f"#define HAS_BOUNDS {int(eq.lower is not None)}\n"
         f"#define NETS {int(bool(eq.networks))}\n#define NB {max(_buffer_layout(eq)[1], 1)} "
         "/* the networks' layer values at one point */",
         "\n".join(widths),

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ...physics.effects.neural import NeuralEffect
-from ...physics.models import STRUCTURE, Constitutive, DrivenOscillator, InputSample
+from ...physics.models import Constitutive, DrivenOscillator, InputSample
 from ...physics.symbolic import SymbolicState
 
 
@@ -38,7 +38,7 @@ class Network:
 @dataclass
 class Equations:
     state: list  # state symbols (S)
-    inputs: list  # [u, du, ddu]
+    inputs: list  # [u, du, ddu, *controls]
     params: list  # parameter symbols (P)
     param_keys: list  # [(effect key or "structure", name)] in the order of ``params``
     rhs: list  # ds/dt (S)
@@ -48,9 +48,8 @@ class Equations:
     networks: list = field(default_factory=list)  # Network per neural effect; weights follow the params in th
 
 
-def _param_symbols(model):
-    groups = [(key, effect.value_names()) for key, effect in model.effects.items()]
-    groups.append((STRUCTURE, list(model.structure_params)))
+def _param_symbols(model, controls=()):
+    groups = list(model.value_names(controls).items())
     keys, syms, P = [], [], {}
     for key, names in groups:
         P[key] = {}
@@ -85,19 +84,21 @@ class _Networks:
         return effect.terms(net.outputs)
 
 
-def build_equations(model) -> Equations:
+def build_equations(model, controls: tuple[str, ...] = ()) -> Equations:
     """Symbolic right-hand side and outputs of a ``Constitutive`` or ``DrivenOscillator`` model: its own
-    ``derivative`` and ``output`` called on symbols."""
+    ``derivative`` and ``output`` called on symbols. ``controls``: the control channels, inputs after u, u̇, ü
+    (a parameter that follows one is its function of the control's symbol)."""
     if not isinstance(model, (Constitutive, DrivenOscillator)):
         raise ValueError(f"the fast path supports Constitutive and DrivenOscillator models, not {type(model).__name__}")
     inputs = list(sp.symbols("u du ddu", real=True))
+    signals = [sp.Symbol(f"ctl{i}", real=True) for i in range(len(controls))]
     state = list(sp.symbols(f"s0:{model.state_dim}", real=True)) if model.state_dim else []
-    keys, params, P = _param_symbols(model)
+    keys, params, P = _param_symbols(model, controls)
     bounds = model.state_bounds(P)
     lower = None if bounds is None else [b[0] for b in bounds]
     upper = None if bounds is None else [b[1] for b in bounds]
     nets = _Networks(len(params))
-    inp = InputSample(*inputs)
+    inp = InputSample(*inputs, dict(zip(controls, signals)))
     rhs = model.derivative(SymbolicState(state), inp, P, substitute=nets)
     out = model.output(SymbolicState(state), inp, P, substitute=nets)
-    return Equations(state, inputs, params, keys, list(rhs), list(out), lower, upper, nets.networks)
+    return Equations(state, inputs + signals, params, keys, list(rhs), list(out), lower, upper, nets.networks)

@@ -10,7 +10,7 @@ from ..fixed import TABLEAUX
 from .build import compile_equations, prebuild
 from .equations import build_equations
 
-_COMPILED: dict[int, tuple] = {}
+_COMPILED: dict[tuple, tuple] = {}
 
 
 def _constants(model) -> tuple:
@@ -27,22 +27,24 @@ def _constants(model) -> tuple:
     return tuple(out)
 
 
-def compiled(model):
-    """(equations, generated module) for a model, cached per model instance (and its networks' constants)."""
-    key = id(model)
+def compiled(model, controls: tuple[str, ...] = ()):
+    """(equations, generated module) for a model with the control channels ``controls``, cached per model instance
+    (and its networks' constants)."""
+    key = (id(model), tuple(controls))
     hit = _COMPILED.get(key)
     constants = _constants(model)
     if hit is None or hit[0] is not model or hit[1] != constants:
-        eq = build_equations(model)
+        eq = build_equations(model, tuple(controls))
         hit = (model, constants, eq, compile_equations(eq))
         _COMPILED[key] = hit
     return hit[2], hit[3]
 
 
-def prebuild_models(models) -> None:
+def prebuild_models(models, controls: tuple[str, ...] = ()) -> None:
     """Build the compiled loops of several models side by side (one compiler process each, as many at once
-    as there are cores), before they are simulated one after another: a discovery step's candidates."""
-    prebuild([build_equations(m) for m in models])
+    as there are cores), before they are simulated one after another: a discovery step's candidates (with the
+    control channels ``controls`` of the records they will simulate)."""
+    prebuild([build_equations(m, tuple(controls)) for m in models])
 
 
 def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
@@ -104,15 +106,16 @@ class _FastSimulate(torch.autograd.Function):
 
 
 def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, method: str = "rk4",
-                  substeps: int = 1, return_states: bool = False):
-    """Outputs ``(batch, time, output_dim)`` of the compiled loop; differentiable like the reference.
+                  substeps: int = 1, return_states: bool = False, controls: tuple[str, ...] = ()):
+    """Outputs ``(batch, time, output_dim)`` of the compiled loop; differentiable like the reference. ``U (batch,
+    time, 3 + C)``: the input, its rates and the C control channels named ``controls``.
 
     With ``return_states`` also the states ``(batch, time, state_dim)`` at the samples, differentiable like
     the outputs (their cotangent enters the same discrete adjoint).
     """
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
-    eq, module = compiled(model)
+    eq, module = compiled(model, controls)
     B = U.shape[0]
     theta = _theta(eq, P, model, B, U)
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1).contiguous()  # (batch, time - 1): each row its own grid
@@ -122,7 +125,7 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
 
 
 def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
-                 method: str = "rk4", substeps: int = 1):
+                 method: str = "rk4", substeps: int = 1, controls: tuple[str, ...] = ()):
     """Outputs ``(batch, time, output_dim)`` and their derivatives ``(batch, time, output_dim, n)`` w.r.t. the
     n parameter values of the equations, in the order of ``compiled(model)[0].param_keys`` (forward
     sensitivities of the compiled loop: one pass for all n, where finite differences take n simulations).
@@ -130,7 +133,7 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     with networks are not covered (their layers are held in the Jacobian kernels)."""
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
-    eq, module = compiled(model)
+    eq, module = compiled(model, controls)
     if eq.networks:
         raise ValueError("tangents of the fast path do not cover models with networks; use the adjoint (backward)")
     B, T = U.shape[0], U.shape[1]

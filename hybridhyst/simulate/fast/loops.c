@@ -1,6 +1,7 @@
 /* The integration loops of every generated model (hybridhyst.simulate.fast.codegen pastes them after the
    model's kernels ``bounds``, ``rhs``, ``rhs_jac``, ``out``, ``out_jac``, ``rhs_net_vjp``, ``out_net_vjp`` and its
-   sizes S, P, O, NB, HAS_BOUNDS, NETS). Arrays are row-major float64: U (B, T, 3) the input and its two rates,
+   sizes S, P, O, NI, NB, HAS_BOUNDS, NETS). Arrays are row-major float64: U (B, T, NI) the input, its two rates and
+   the control channels,
    h (B, T - 1) each row's sample intervals, th (B, NT) each row's P parameter values then the networks'
    weights, s0 (B, S), states (B, T, S), y (B, T, O). The explicit Runge-Kutta tableau is c (nst), A (nst, nst),
    bw (nst); ``sub`` sub-steps per sample interval, the input linearly interpolated inside it. The exported
@@ -16,20 +17,22 @@ static inline void stage_state(const double *st, const double *K, int j, double 
     }
 }
 
-/* The input (u, du, ddu) a fraction fr into sample interval k (linear interpolation). */
+/* The inputs (u, du, ddu, controls) a fraction fr into sample interval k (linear interpolation). */
 static inline void stage_input(const double *U, int k, double fr, double *in) {
-    for (int q = 0; q < 3; q++) in[q] = U[k * 3 + q] + (U[(k + 1) * 3 + q] - U[k * 3 + q]) * fr;
+    for (int q = 0; q < NI; q++) in[q] = U[k * NI + q] + (U[(k + 1) * NI + q] - U[k * NI + q]) * fr;
 }
+
+static const double ZERO_IN[NI] = {0}; /* the inputs where the state bounds are evaluated (they read none) */
 
 /* Advance st in place by sub-step m of interval k. */
 static inline void substep(int k, int m, double *st, double *K, double *Y, double hk, const double *U,
                            const double *th, int nst, const double *c, const double *A, const double *bw, int sub,
                            double *buf) {
-    double in[3];
+    double in[NI];
     for (int j = 0; j < nst; j++) {
         stage_state(st, K, j, hk, A, nst, Y);
         stage_input(U, k, (m + c[j]) / sub, in);
-        rhs(Y, in[0], in[1], in[2], th, K + j * DIM(S), buf);
+        rhs(Y, in, th, K + j * DIM(S), buf);
     }
     for (int i = 0; i < S; i++) {
         double acc = 0.0;
@@ -59,7 +62,7 @@ static void forward_row(int T, const double *U, const double *h, const double *t
     double lo[DIM(S)], hi[DIM(S)], fl[DIM(S)], dlo[DIM(S * P)], dhi[DIM(S * P)];
     memset(K, 0, sizeof K);
     for (int i = 0; i < S; i++) st[i] = s0[i];
-    if (HAS_BOUNDS) bounds(st, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int i = 0; i < S; i++) states[i] = st[i];
     for (int k = 0; k < T - 1; k++) {
         double hk = h[k] / sub;
@@ -70,7 +73,7 @@ static void forward_row(int T, const double *U, const double *h, const double *t
         for (int i = 0; i < S; i++) states[(k + 1) * S + i] = st[i];
     }
     for (int k = 0; k < T; k++) {
-        out(states + k * S, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, buf);
+        out(states + k * S, U + k * NI, th, g, buf);
         for (int o = 0; o < O; o++) y[k * O + o] = g[o];
     }
 }
@@ -83,17 +86,17 @@ static void tangent_row(int T, const double *U, const double *h, const double *t
                         double *y, double *dy) {
     const int s1 = DIM(S), p1 = DIM(P);
     double K[nst * s1], dK[nst * s1 * p1], Y[s1], dY[s1 * p1];
-    double FS[s1 * s1], FT[s1 * p1], FI[s1 * 3];
-    double g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * 3], buf[NB];
+    double FS[s1 * s1], FT[s1 * p1], FI[s1 * NI];
+    double g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * NI], buf[NB];
     double st[s1], sig[s1 * p1]; /* the state and d(state)/d(parameters) (S, P) */
-    double lo[s1], hi[s1], fl[s1], dlo[s1 * p1], dhi[s1 * p1], in[3];
+    double lo[s1], hi[s1], fl[s1], dlo[s1 * p1], dhi[s1 * p1], in[NI];
     memset(K, 0, sizeof K);
     memset(dK, 0, sizeof dK);
     for (int i = 0; i < S; i++) st[i] = s0[i];
     for (int i = 0; i < S * P; i++) sig[i] = ds0[i];
-    if (HAS_BOUNDS) bounds(st, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = 0; k < T; k++) {
-        out_jac(st, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, gs, gt, gi, buf);
+        out_jac(st, U + k * NI, th, g, gs, gt, gi, buf);
         for (int o = 0; o < O; o++) {
             y[k * O + o] = g[o];
             for (int p = 0; p < P; p++) {
@@ -114,7 +117,7 @@ static void tangent_row(int T, const double *U, const double *h, const double *t
                         dY[i * P + p] = acc;
                     }
                 stage_input(U, k, (m + c[j]) / sub, in);
-                rhs_jac(Y, in[0], in[1], in[2], th, K + j * s1, FS, FT, FI, buf);
+                rhs_jac(Y, in, th, K + j * s1, FS, FT, FI, buf);
                 for (int i = 0; i < S; i++)
                     for (int p = 0; p < P; p++) {
                         double acc = FT[i * P + p];
@@ -142,15 +145,15 @@ static void tangent_row(int T, const double *U, const double *h, const double *t
     }
 }
 
-/* Exact adjoint of forward_row: accumulates dL/dth (NT), dL/dU (T, 3), dL/ds0 (S) from dL/dy (T, O) and
+/* Exact adjoint of forward_row: accumulates dL/dth (NT), dL/dU (T, NI), dL/ds0 (S) from dL/dy (T, O) and
    dL/d(states at the samples) (T, S). */
 static void backward_row(int T, int NT, const double *U, const double *h, const double *th, const double *states,
                          const double *gy, const double *gS, int nst, const double *c, const double *A,
                          const double *bw, int sub, double *gth, double *gU, double *gs0) {
     const int s1 = DIM(S), p1 = DIM(P);
-    double lam[s1], g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * 3];
-    double K[nst * s1], Y[s1], Yst[nst * s1], FS[nst * s1 * s1], FT[nst * s1 * p1], FI[nst * s1 * 3];
-    double lamK[nst * s1], lamY[s1], UIN[nst * 3], gin[3], st[s1], in[3];
+    double lam[s1], g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * NI];
+    double K[nst * s1], Y[s1], Yst[nst * s1], FS[nst * s1 * s1], FT[nst * s1 * p1], FI[nst * s1 * NI];
+    double lamK[nst * s1], lamY[s1], UIN[nst * NI], gin[NI], st[s1];
     double lo[s1], hi[s1], dlo[s1 * p1], dhi[s1 * p1];
     double *sub_start = malloc(sizeof(double) * sub * s1);
     double *flags = malloc(sizeof(double) * sub * s1);
@@ -158,24 +161,24 @@ static void backward_row(int T, int NT, const double *U, const double *h, const 
     (void)NT;
     memset(K, 0, sizeof K);
     for (int i = 0; i < S; i++) lam[i] = 0.0;
-    if (HAS_BOUNDS) bounds(states, 0.0, 0.0, 0.0, th, lo, hi, dlo, dhi);
+    if (HAS_BOUNDS) bounds(states, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = T - 1; k >= 0; k--) {
         const double *sk = states + k * S;
         /* output y_k = g(s_k, U_k, th) */
-        out_jac(sk, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, g, gs, gt, gi, buf + nst * NB);
+        out_jac(sk, U + k * NI, th, g, gs, gt, gi, buf + nst * NB);
         for (int o = 0; o < O; o++) {
             double w = gy[k * O + o];
             if (w != 0.0) {
                 for (int i = 0; i < S; i++) lam[i] += gs[o * S + i] * w;
                 for (int p = 0; p < P; p++) gth[p] += gt[o * P + p] * w;
-                for (int q = 0; q < 3; q++) gU[k * 3 + q] += gi[o * 3 + q] * w;
+                for (int q = 0; q < NI; q++) gU[k * NI + q] += gi[o * NI + q] * w;
             }
         }
         for (int i = 0; i < S; i++) lam[i] += gS[k * S + i]; /* the states' own cotangent (return_states) */
         if (NETS) { /* the networks' share of the output's adjoint */
-            gin[0] = gin[1] = gin[2] = 0.0;
-            out_net_vjp(sk, U[k * 3], U[k * 3 + 1], U[k * 3 + 2], th, gy + k * O, lam, gth, gin, buf + nst * NB);
-            for (int q = 0; q < 3; q++) gU[k * 3 + q] += gin[q];
+            for (int q = 0; q < NI; q++) gin[q] = 0.0;
+            out_net_vjp(sk, U + k * NI, th, gy + k * O, lam, gth, gin, buf + nst * NB);
+            for (int q = 0; q < NI; q++) gU[k * NI + q] += gin[q];
         }
         if (k == 0) break;
         int kk = k - 1;
@@ -204,16 +207,16 @@ static void backward_row(int T, int NT, const double *U, const double *h, const 
             /* stages of sub-step m with their Jacobians */
             for (int j = 0; j < nst; j++) {
                 stage_state(sub_start + m * s1, K, j, hk, A, nst, Yst + j * s1);
-                stage_input(U, kk, (m + c[j]) / sub, UIN + j * 3);
-                rhs_jac(Yst + j * s1, UIN[j * 3], UIN[j * 3 + 1], UIN[j * 3 + 2], th, K + j * s1, FS + j * s1 * s1,
-                        FT + j * s1 * p1, FI + j * s1 * 3, buf + j * NB);
+                stage_input(U, kk, (m + c[j]) / sub, UIN + j * NI);
+                rhs_jac(Yst + j * s1, UIN + j * NI, th, K + j * s1, FS + j * s1 * s1, FT + j * s1 * p1,
+                        FI + j * s1 * NI, buf + j * NB);
             }
             /* adjoint of s' = s + hk sum_j bw_j K_j, K_j = f(Y_j), Y_j = s + hk sum_l A_jl K_l */
             for (int j = 0; j < nst; j++)
                 for (int i = 0; i < S; i++) lamK[j * s1 + i] = hk * bw[j] * lam[i];
             for (int j = nst - 1; j >= 0; j--) {
                 double fr = (m + c[j]) / sub;
-                const double *fs = FS + j * s1 * s1, *ft = FT + j * s1 * p1, *fi = FI + j * s1 * 3;
+                const double *fs = FS + j * s1 * s1, *ft = FT + j * s1 * p1, *fi = FI + j * s1 * NI;
                 const double *lk = lamK + j * s1;
                 for (int i = 0; i < S; i++) {
                     double acc = 0.0;
@@ -225,19 +228,18 @@ static void backward_row(int T, int NT, const double *U, const double *h, const 
                     for (int r = 0; r < S; r++) acc += ft[r * P + p] * lk[r];
                     gth[p] += acc;
                 }
-                for (int q = 0; q < 3; q++) {
+                for (int q = 0; q < NI; q++) {
                     double acc = 0.0;
-                    for (int r = 0; r < S; r++) acc += fi[r * 3 + q] * lk[r];
-                    gU[kk * 3 + q] += acc * (1.0 - fr);
-                    gU[(kk + 1) * 3 + q] += acc * fr;
+                    for (int r = 0; r < S; r++) acc += fi[r * NI + q] * lk[r];
+                    gU[kk * NI + q] += acc * (1.0 - fr);
+                    gU[(kk + 1) * NI + q] += acc * fr;
                 }
                 if (NETS) { /* the networks' share: their weights, and through their inputs the state's adjoint */
-                    gin[0] = gin[1] = gin[2] = 0.0;
-                    rhs_net_vjp(Yst + j * s1, UIN[j * 3], UIN[j * 3 + 1], UIN[j * 3 + 2], th, lk, lamY, gth, gin,
-                                buf + j * NB);
-                    for (int q = 0; q < 3; q++) {
-                        gU[kk * 3 + q] += gin[q] * (1.0 - fr);
-                        gU[(kk + 1) * 3 + q] += gin[q] * fr;
+                    for (int q = 0; q < NI; q++) gin[q] = 0.0;
+                    rhs_net_vjp(Yst + j * s1, UIN + j * NI, th, lk, lamY, gth, gin, buf + j * NB);
+                    for (int q = 0; q < NI; q++) {
+                        gU[kk * NI + q] += gin[q] * (1.0 - fr);
+                        gU[(kk + 1) * NI + q] += gin[q] * fr;
                     }
                 }
                 for (int l = 0; l < j; l++)
@@ -256,7 +258,7 @@ void hh_forward(long b0, long b1, long T, long NT, const double *U, const double
                 const double *s0, long nst, const double *c, const double *A, const double *bw, long sub,
                 double *states, double *y) {
     for (long b = b0; b < b1; b++)
-        forward_row(T, U + b * T * 3, h + b * (T - 1), th + b * NT, s0 + b * S, nst, c, A, bw, sub,
+        forward_row(T, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, nst, c, A, bw, sub,
                     states + b * T * S, y + b * T * O);
 }
 
@@ -264,14 +266,14 @@ void hh_backward(long b0, long b1, long T, long NT, const double *U, const doubl
                  const double *states, const double *gy, const double *gS, long nst, const double *c,
                  const double *A, const double *bw, long sub, double *gth, double *gU, double *gs0) {
     for (long b = b0; b < b1; b++)
-        backward_row(T, NT, U + b * T * 3, h + b * (T - 1), th + b * NT, states + b * T * S, gy + b * T * O,
-                     gS + b * T * S, nst, c, A, bw, sub, gth + b * NT, gU + b * T * 3, gs0 + b * S);
+        backward_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, states + b * T * S, gy + b * T * O,
+                     gS + b * T * S, nst, c, A, bw, sub, gth + b * NT, gU + b * T * NI, gs0 + b * S);
 }
 
 void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                 const double *s0, const double *ds0, long nst, const double *c, const double *A, const double *bw,
                 long sub, double *y, double *dy) {
     for (long b = b0; b < b1; b++)
-        tangent_row(T, U + b * T * 3, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * P, nst, c, A, bw, sub,
+        tangent_row(T, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * P, nst, c, A, bw, sub,
                     y + b * T * O, dy + b * T * O * P);
 }

@@ -66,9 +66,9 @@ static inline void _mlp_forward(const double *x, const double *th, int off, cons
 
 /* Back-propagate v = dfdn^T w through the MLP evaluated in Z, A: its weights' gradient into gth[off:], its
    inputs' gradient through their Jacobians into lam (state, ns), gth[:np] (parameters) and gin (inputs).
-   dfdn (ne, n_out), dins (n_in, ns), dinth (n_in, np), dinin (n_in, 3). */
+   dfdn (ne, n_out), dins (n_in, ns), dinth (n_in, np), dinin (n_in, ni) (ni inputs: u, du, ddu, controls). */
 static inline void _network_vjp(const double *w, int ne, const double *dfdn, const double *dins, int ns,
-                                const double *dinth, int np, const double *dinin, const double *th, int off,
+                                const double *dinth, int np, const double *dinin, int ni, const double *th, int off,
                                 const int *widths, int L, int act, const double *Z, const double *A, int width,
                                 double *lam, double *gth, double *gin) {
     double g[width], gp[width];
@@ -108,7 +108,7 @@ static inline void _network_vjp(const double *w, int ne, const double *dfdn, con
         if (ga != 0.0) {
             for (int r = 0; r < ns; r++) lam[r] += ga * dins[a * ns + r];
             for (int p = 0; p < np; p++) gth[p] += ga * dinth[a * np + p];
-            for (int q = 0; q < 3; q++) gin[q] += ga * dinin[a * 3 + q];
+            for (int q = 0; q < ni; q++) gin[q] += ga * dinin[a * ni + q];
         }
     }
 }
