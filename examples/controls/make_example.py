@@ -69,16 +69,17 @@ def record(rng):
     return t, x(t), force + noise, v(t)
 
 
-def main():
+def main(out: Path | None = None) -> Path:
     rng = np.random.default_rng(2026)
     lines = ["record,set,t,x_mm,force_n,voltage_v"]
     for i in range(6):
         t, x, f, v = record(rng)
         part = "fit" if i < 4 else "held_out"
         lines += [f"r{i + 1},{part},{a:.4f},{b:.5f},{c:.3f},{d:.4f}" for a, b, c, d in zip(t, x, f, v)]
-    out = Path(__file__).with_name("mr_damper_voltage.csv")
+    out = Path(__file__).with_name("mr_damper_voltage.csv") if out is None else Path(out)
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out} ({len(lines) - 1} rows)")
+    return out
 
 
 if __name__ == "__main__":

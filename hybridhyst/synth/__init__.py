@@ -15,7 +15,6 @@ from ..data.builtin import register_builtin
 from .seed001 import forced_response as forced_response
 from .seed001 import free_vibration_frequencies as free_vibration_frequencies
 from .seed001 import identifiable_combinations as identifiable_combinations
-from .seed001 import pressure_segments as pressure_segments
 from .vpptd import MIXTURES as MIXTURES
 from .vpptd import PRESSURES as PRESSURES
 from .vpptd import load_vpptd as load_vpptd
@@ -23,4 +22,4 @@ from .vpptd import load_vpptd as load_vpptd
 register_builtin("vpptd", load_vpptd)
 
 __all__ = ["MIXTURES", "PRESSURES", "forced_response", "free_vibration_frequencies", "identifiable_combinations",
-           "load_vpptd", "pressure_segments"]
+           "load_vpptd"]

@@ -14,7 +14,7 @@ from ..analysis import free_vibration_frequency
 from ..physics.compositions.seed001 import CONDITION, FREE_VIBRATION_IC, _check_mixture, vpptd_rig
 from ..simulate import simulate
 
-__all__ = ["forced_response", "free_vibration_frequencies", "identifiable_combinations", "pressure_segments"]
+__all__ = ["forced_response", "free_vibration_frequencies", "identifiable_combinations"]
 
 
 def identifiable_combinations(model, pressures) -> dict[str, np.ndarray]:
@@ -66,27 +66,13 @@ def free_vibration_frequencies(mixture: str, pressures=None, duration: float = 1
     return pressures, freqs
 
 
-def pressure_segments(pressure_mpa, tolerance_mpa: float = 1e-3) -> np.ndarray:
-    """Start samples of the piecewise-constant segments of an underpressure schedule ``(B, T)`` [MPa].
-
-    A segment starts at sample 0 and wherever some row's pressure first differs by more than
-    ``tolerance_mpa`` from that row's value at the segment's start.
-    """
-    P = np.atleast_2d(np.asarray(pressure_mpa, dtype=np.float64))
-    if tolerance_mpa < 0 or not np.isfinite(P).all():
-        raise ValueError("the pressure schedule must be finite and tolerance_mpa >= 0")
-    starts, ref = [0], P[:, 0]
-    for i in range(1, P.shape[1]):
-        if np.abs(P[:, i] - ref).max() > tolerance_mpa:
-            starts.append(i)
-            ref = P[:, i]
-    return np.asarray(starts)
-
-
 def forced_response(mixture: str, t, pressure_mpa, amplitude_deg: float = 10.0, frequency_hz: float = 0.3,
-                    coefficients=None, outputs=("x",), tolerance_mpa: float = 1e-3,
-                    backend: str = "fast") -> np.ndarray:
+                    coefficients=None, outputs=("x",), backend: str = "fast") -> np.ndarray:
     """The rig driven by φ₁ = φ₀ sin(2π f t) under an underpressure schedule (seed 001 §5.2, Figs. 10–14).
+
+    The schedule is a control channel of the simulation (``simulate(conditions={"pressure_mpa": (B, T)})``):
+    Table 1's polynomials of p are evaluated at every integration stage, p interpolated linearly between the
+    samples like the excitation. One uninterrupted simulation per schedule.
 
     Parameters
     ----------
@@ -94,9 +80,6 @@ def forced_response(mixture: str, t, pressure_mpa, amplitude_deg: float = 10.0, 
     pressure_mpa : underpressure at each sample, ``(T,)`` or ``(B, T)`` [MPa] (B schedules in one batch).
     amplitude_deg, frequency_hz : φ₀ [deg] and f [Hz] of the kinematic excitation (its rates are exact).
     coefficients : Table 1's layout, replacing the mixture's damper law; outputs : rig outputs.
-    tolerance_mpa : the schedule is held piecewise constant (``pressure_segments``); each segment is
-        one ``simulate`` call started from the previous one's full final state (φ₂, φ̇₂, z), so a
-        constant schedule gives exactly one uninterrupted simulation.
 
     Returns
     -------
@@ -110,14 +93,6 @@ def forced_response(mixture: str, t, pressure_mpa, amplitude_deg: float = 10.0, 
     phi1 = float(amplitude_deg) * np.stack([np.sin(w * t), w * np.cos(w * t), -w * w * np.sin(w * t)], axis=-1)
     U = torch.as_tensor(np.broadcast_to(phi1, (len(P), len(t), 3)).copy())
     model = vpptd_rig(mixture, outputs=outputs, coefficients=coefficients).double()
-    starts = pressure_segments(P, tolerance_mpa)
-    bounds = [*starts[starts < len(t) - 1], len(t) - 1]  # a segment needs two samples
-    pieces, state = [], None
     with torch.no_grad():
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            y, states = simulate(model, U[:, a:b + 1], t=t[a:b + 1], conditions={CONDITION: P[:, a]},
-                                 initial_state=state, return_states=True, backend=backend)
-            pieces.append(y[:, :-1])
-            state = states[:, -1]
-        pieces.append(y[:, -1:])
-    return torch.cat(pieces, dim=1).double().numpy()
+        y = simulate(model, U, t=t, conditions={CONDITION: torch.as_tensor(P)}, backend=backend)
+    return y.double().numpy()
