@@ -36,8 +36,8 @@ def _script():
 
 apps = _script()
 
-SECTIONS = ("The main job", "Fitting a nominal model", "Your own measurements", "From Python", "Identification",
-            "Training", "Simulating", "Reproducing the seed papers")
+SECTIONS = ("The main job", "Fitting a nominal model", "Your own measurements", "Control inputs", "From Python",
+            "Identification", "Training", "Simulating", "Reproducing the seed papers")
 
 # configs and files whose numbers a section may quote without linking them (protocol settings, not results)
 SECTION_SOURCES = {
@@ -45,6 +45,8 @@ SECTION_SOURCES = {
     "Fitting a nominal model": ["conf/fit.yaml", "conf/data/fit/brfd.yaml"],
     "Your own measurements": ["examples/own_data/make_example.py", "examples/own_data/damper_loops.csv",
                               "conf/fit.yaml", "conf/discover.yaml", "conf/train.yaml", "conf/data/table.yaml"],
+    "Control inputs": ["examples/controls/make_example.py", "conf/model/mr_damper_spencer.yaml",
+                       "conf/model/mr_damper_voltage.yaml", "conf/data/table.yaml"],
     "From Python": ["tests/test_fast.py"],
     "Identification": ["conf/identify.yaml", "conf/data/identify/vpptd.yaml"],
     "Training": ["conf/train.yaml", "conf/data/train/brfd.yaml", "conf/loss/seed000.yaml",
@@ -63,6 +65,11 @@ NOT_MEASURED = {
     "Fitting a nominal model": {"2": "exit code of a config error (hybridhyst/cli/common.py)"},
     "Your own measurements": {
         "150": "size of examples/own_data/damper_loops.csv in KB (checked below)",
+        "2": "exit code of a config error (hybridhyst/cli/common.py)",
+    },
+    "Control inputs": {
+        "460": "size of examples/controls/mr_damper_voltage.csv in KB (tests/test_controls_cli.py bounds it)",
+        "1997": "the year of Spencer, Dyke, Sain & Carlson's paper",
         "2": "exit code of a config error (hybridhyst/cli/common.py)",
     },
     "From Python": {"9": "the vpptd data set's nine underpressures"},

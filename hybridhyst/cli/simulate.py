@@ -64,8 +64,13 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         t, u = np.arange(n) * float(inp.dt), np.zeros(n)
         initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
     solver = cfg.solver
+    conditions = dict(to_plain(cfg.conditions) or {})
+    for effect in model.effects.values():  # what acts on a control (a lag, a saturation) reads a signal: a level
+        control = getattr(effect, "control", None)  # given in `conditions` is held over the whole input
+        if control in conditions:
+            conditions[control] = np.full((1, len(t)), float(conditions[control]))
     with torch.no_grad():
-        y = simulate(model, u[None], t=t, conditions=to_plain(cfg.conditions) or None, initial_state=initial,
+        y = simulate(model, u[None], t=t, conditions=conditions or None, initial_state=initial,
                      method=solver.method, substeps=int(solver.substeps), backend=solver.backend)[0].cpu().numpy()
     frame = pd.DataFrame({"record": kind, "t": t, "u": u})
     for i, name in enumerate(_output_names(model)):
