@@ -163,3 +163,12 @@ def test_simulate_drives_spencers_damper_by_a_held_voltage_and_a_model_by_the_re
     summary = simulate.run(cfg)
     table = pd.read_csv(tmp_path / "data" / "predictions.csv")
     assert set(summary["records"]) == {"r5", "r6"} and "voltage" in table.columns
+
+
+def test_the_physics_residual_refuses_a_lagged_control_in_one_line(tmp_path):
+    from hybridhyst.cli import train
+
+    cfg = _compose("train", tmp_path, "progress=false", "model=mr_damper_voltage", "loss.lambda_phys=0.1",
+                   "nominal_init.method=none")
+    with pytest.raises(ValueError, match="lambda_phys=0 and module=physics or hybrid"):
+        train.run(cfg)
