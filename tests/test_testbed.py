@@ -264,6 +264,8 @@ def test_case_list_sanity():
             assert c.keys, c.name
             for coord, truth, tol in c.keys:
                 effect = coord.split(".")[0]
+                if effect.startswith("lag_"):  # discover's key of a control's lag: lag_<control>
+                    effect = "control_lag"
                 assert any(effect in fam for fam in c.expected), (c.name, coord)
                 assert math.isfinite(truth) and truth != 0 and 0 < tol < 1
         else:
@@ -290,7 +292,10 @@ def test_case_data_nominal_and_split():
             nominal = c.nominal()
             present = {e.name for e in nominal.effects.values()}
             assert not present & {n for fam in c.expected for n in fam}, c.name  # the extra effect is missing
-            if c.category == "condition":  # every record at a level of the condition the split holds out
+            if c.category == "condition" and records.records[0].controls:  # the condition varies in every record
+                for r in records:
+                    assert r.controls and all(np.ptp(v) > 0 for v in r.controls.values()), (c.name, r.name)
+            elif c.category == "condition":  # every record at a level of the condition the split holds out
                 (condition,) = c.split["held_out"]
                 assert len({r.conditions[condition] for r in records}) >= 6, c.name
     finally:

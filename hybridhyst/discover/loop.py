@@ -541,6 +541,7 @@ class Loop:
             "steps": [s.as_json() for s in self.steps], "rejected": [s.as_json() for s in self.rejected],
             "removed": [c.as_json() for c in self.removed], "stopped": self.stopped,
             "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
+                        "keys": {key: e.name for key, e in model.effects.items()},  # each key's library name
                         "added": [e for e in final_effects if e not in nominal_effects],
                         "dropped": sorted(nominal_effects - set(final_effects))},
             "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": o.noise_sd,

@@ -9,7 +9,13 @@ Every case is a ``Case``; ``CASES`` lists them, ``CASE_BY_NAME`` finds one. Cate
 * ``condition``: seed 000's VPPTD law M = c φ̇ + k φ + k₂ φ³ + M_s sgn φ̇ (φ in deg, φ̇ in rad/s, M in Nm)
   with parameters rising with the underpressure (linearly or exponentially) plus one missing effect (in one
   case with a level that rises with the underpressure too); the nominal is ``vpptd_algebraic`` with constant
-  parameters; and a friction damper whose missing clearance has a level that rises with a coil current;
+  parameters; a friction damper whose missing clearance has a level that rises with a coil current; and two
+  cases whose condition varies in time within each record, a control channel (``Record.controls``): an MR damper
+  whose coil voltage (a random staircase) reaches its damping and hysteretic force through a first-order lag
+  (missing: ``control_lag``; the parameters' dependence on the voltage is found as trends), and a friction
+  damper whose level follows an underpressure ramp (missing: the viscous term; the level's dependence on the
+  pressure a trend). Their records carry a categorical condition (``set``) to split on, so that no numeric
+  condition is offered as a trend;
 * ``clean``: the nominal is the truth's structure: nothing may be added;
 * ``out_of_library``: an effect the library does not have (cogging, friction whose level varies with
   position): nothing may be named, and the loop should flag structure it cannot name.
@@ -37,10 +43,12 @@ from .laws import (
     VPPTD_SPLIT,
     bw_law,
     clearance_law,
+    control_friction_law,
     dahl_law,
     drift_law,
     lugre_law,
     maxwell_law,
+    mr_lag_law,
     on_fine,
     osc_law,
     p_const,
@@ -60,6 +68,7 @@ DAHL = frozenset({"dahl", "lugre"})
 ALIASES = {"coulomb": COULOMB, "dahl": DAHL}
 
 DAMPER_UNITS = {"x": "in", "F": "kip", "t": "s"}
+MM_UNITS = {"x": "mm", "F": "N", "t": "s"}
 OSC_UNITS = {"x": "in", "F": "kip", "u": "kip", "t": "s"}
 
 
@@ -131,10 +140,10 @@ def _sine_tests(tests: Sequence[tuple[float, float]], spc: int, cycles: float, a
     return out
 
 
-def _damper(effects: dict, name: str = "nominal"):
+def _damper(effects: dict, name: str = "nominal", units: dict = DAMPER_UNITS):
     from ..physics.build import build_model
 
-    return build_model("constitutive", effects, units=DAMPER_UNITS, name=name).double()
+    return build_model("constitutive", effects, units=units, name=name).double()
 
 
 def _oscillator(effects: dict, mass: float, name: str = "oscillator"):
@@ -378,6 +387,28 @@ def _build_cases() -> list[Case]:
               "0.05v + 0.3 sign(v) (exact) + Dahl σ0 30 behind a clearance r 0.08 in whose level 1 + 1.5 I rises "
               "with the current I (0–2 A), each test started with the gap closed (q0 = −r); nominal viscous + "
               "Coulomb + Dahl", "200"))
+    # control channels (issue 39): the condition varies in time within each record (Record.controls)
+    add(_case("mr_damper~voltage+lag", "condition", [{"control_lag"}], [("lag_voltage.eta", MR_ETA, 0.20)], MR_NOISE,
+              _mr_voltage_records,
+              lambda: _damper({"viscous": _visc(2.0), "stiffness": _spring(1.0),
+                               "hysteresis": {"effect": "bouc_wen", "kappa": 50.0, "beta": 0.5, "gamma": 0.5,
+                                              "n": 1.5, "alpha": 0.0, "k": 1.0, "k1": 0.0, "A": 1.0, "D": 1.0,
+                                              "fixed": ["alpha", "k", "k1", "A", "D"]}}, units=MM_UNITS),
+              CONTROL_SPLIT,
+              "MR damper (N, mm, s, V): F = (1 + 1.5 u) ẋ + (20 + 60 u) z + 2 x, Bouc–Wen z (n 2, A 1, β 0.4, γ 0.3 "
+              "1/mm², exact in displacement), coil u̇ = −50 (u − v) behind a random voltage staircase v (0–2 V, "
+              "levels held 0.3–0.8 s, 5 ms slew), band-limited random motion (8 lines 0.5–3 Hz, peak 8 mm); "
+              "nominal viscous + spring + Bouc–Wen (κ z), constant parameters", "250 Hz (random 0.5–3 Hz)",
+              "AR(1) 0.5"))
+    add(_case("friction~pressure_ramp+viscous", "condition", [{"viscous"}], [("viscous.c", 0.6, 0.15)],
+              RAMP_NOISE, _pressure_ramp_records,
+              lambda: _damper({"spring": _spring(3.0),
+                               "coulomb": {"effect": "coulomb", "Fc": 30.0, "v_s": 0.1, "fixed": ["v_s"]}},
+                              units=MM_UNITS),
+              CONTROL_SPLIT,
+              "4 x + 0.6 ẋ + (10 + 400 p) sgn(ẋ) (exact) N, mm, s, with the underpressure p [MPa] ramped within "
+              "each record (0.02–0.09, up or down, a different ramp per record); sines from rest; nominal spring + "
+              "Coulomb (constant level)", "100–250"))
     # ---------------------------------------------------------------- clean controls
     add(_case("clean_friction", "clean", [], [], 0.03,
               lambda: _sine_records("clean_friction", STD, static_law(k=2.0, c=0.3, Fc=0.5), spc=100, cycles=2,
@@ -431,6 +462,63 @@ def _clearance_current_records(seed: int = 35):
         out.append(Record(name=f"I{current:.1f}A", t=t, x=sig.x(t), y=law(t, sig) + g.white_noise(len(t), 0.05, rng),
                           conditions={"current_a": current}, units={"x": "in", "y": "kip"}))
     return RecordSet(out, "clearance~current+start")
+
+
+# the control-channel cases: every record a test of its own, a categorical label to split on
+CONTROL_SPLIT = {"held_out": {"set": ["held_out"]}, "val": {"set": ["val"]}}
+CONTROL_SETS = ("fit", "fit", "fit", "fit", "val", "held_out")
+MR_ETA, MR_NOISE = 50.0, 2.0  # 1/s; N (about 1 % of the force's standard deviation, 150–215 N)
+RAMP_NOISE = 0.5  # N
+
+
+def _mr_voltage_records(seed: int = 61):
+    """Six 4 s tests at 250 Hz, each a band-limited random motion (8 sines at random frequencies in 0.5–3 Hz,
+    random phases, faded in from rest over 0.25 s, peak 8 mm) under a random coil-voltage staircase (0–2 V, levels
+    held 0.3–0.8 s, 5 ms slew): F = (c_a + c_b u) ẋ + (α_a + α_b u) z + k x, u̇ = −η (u − v) (``laws.mr_lag_law``,
+    computed on a 20× finer grid; Bouc–Wen exact in displacement, the lag by the exact exponential integrator);
+    AR(1) noise (φ 0.5). The voltage is the record's control channel ``voltage``; ``set`` labels the split."""
+    from ..data.records import Record, RecordSet
+
+    rng = np.random.default_rng(seed)
+    duration, rate = 4.0, 250
+    t = np.arange(int(duration * rate) + 1) / rate
+    out = []
+    for i, label in enumerate(CONTROL_SETS):
+        sig = g.random_motion(8.0, 0.5, 3.0, 8, seed=seed * 100 + i, duration=duration)
+        volts = g.staircase(duration, 0.0, 2.0, seed=seed * 100 + 50 + i)
+        law = on_fine(mr_lag_law(volts, c_a=1.0, c_b=1.5, alpha_a=20.0, alpha_b=60.0, k=2.0, beta=0.4, gamma=0.3,
+                                 eta=MR_ETA), 20)
+        y = law(t, sig) + g.ar1_noise(len(t), MR_NOISE, 0.5, rng)
+        out.append(Record(name=f"mr{i + 1}_{label}", t=t, x=sig.x(t), y=y, conditions={"set": label},
+                          units={"x": "mm", "y": "N", "voltage": "V"}, controls={"voltage": volts(t)}))
+    return RecordSet(out, "mr_damper~voltage+lag")
+
+
+# (amplitude mm, frequency Hz, pressure at the start and at the end MPa) of the pressure-ramp tests
+RAMP_TESTS = [(5.0, 1.0, 0.02, 0.09), (5.0, 2.0, 0.09, 0.02), (8.0, 1.25, 0.03, 0.07), (3.0, 2.5, 0.06, 0.09),
+              (6.0, 1.0, 0.05, 0.02), (6.0, 2.0, 0.02, 0.08)]
+
+
+def _pressure_ramp_records(seed: int = 62):
+    """Six 4 s tests at 250 Hz (``RAMP_TESTS``; a whole number of cycles, x = −A cos 2πft from rest), the
+    underpressure held 0.5 s at its start value, ramped linearly to its end value and held for the last 0.5 s:
+    F = 4 x + 0.6 ẋ + (10 + 400 p(t)) sgn(ẋ) (exact sign) N; white noise. The pressure is the control channel
+    ``pressure_mpa``; ``set`` labels the split."""
+    from ..data.records import Record, RecordSet
+
+    rng = np.random.default_rng(seed)
+    duration, rate = 4.0, 250
+    t = np.arange(int(duration * rate) + 1) / rate
+    out = []
+    for (a, f, p0, p1), label in zip(RAMP_TESTS, CONTROL_SETS, strict=True):
+        sig = g.sine(a, f, phase=-math.pi / 2)
+        p = g.ramp(duration, p0, p1, lead=0.5)
+        law = control_friction_law(p, k=4.0, c=0.6, level=lambda q: 10.0 + 400.0 * q)
+        y = law(t, sig) + g.white_noise(len(t), RAMP_NOISE, rng)
+        out.append(Record(name=f"A{a:g}_{f:g}Hz_p{p0:g}-{p1:g}_{label}", t=t, x=sig.x(t), y=y,
+                          conditions={"set": label}, units={"x": "mm", "y": "N", "pressure_mpa": "MPa"},
+                          controls={"pressure_mpa": p(t)}))
+    return RecordSet(out, "friction~pressure_ramp+viscous")
 
 
 def _inertia_records():

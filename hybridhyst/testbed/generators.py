@@ -9,7 +9,10 @@ with numerics the library does not use, so that the discovery loop is judged on 
 * the play operator is the exact discrete one, y_k = clamp(y_{k-1}, x_k − r, x_k + r), on an input
   refined many times between samples;
 * Dahl friction is integrated exactly in displacement (it is rate-independent: piecewise exponential),
-  also behind a clearance (a gap in series: the increment split where the gap opens or closes);
+  also behind a clearance (a gap in series: the increment split where the gap opens or closes), and so is
+  Bouc–Wen with n = 2 (piecewise tanh / tan, split where the state crosses 0);
+* control channels (a coil voltage, an underpressure schedule) are ``Schedule`` signals, exactly linear between
+  their breakpoints (slewed staircases, ramps); a first-order lag of one is ``linear_lag`` (exact for them);
 * Maxwell elements and other linear lags use an exact exponential integrator (first-order hold);
 * other states (LuGre, Bouc–Wen, oscillators) use ``scipy.integrate.solve_ivp`` (LSODA, Radau or
   DOP853 with tight tolerances and a step limit of a tenth of the sample interval), or ``heun``, a
@@ -30,9 +33,10 @@ from scipy.integrate import solve_ivp
 from scipy.special import erf
 
 __all__ = [
-    "Sines", "ar1_noise", "bouc_wen_yield", "clearance_dahl", "cogging", "cumulative_travel", "dahl_exact", "fine_grid",
-    "heun", "integrate", "linear_lag", "lugre", "maxwell_force", "mr_damper", "multisine", "oscillator", "play",
-    "play_rate", "sgn", "sine", "stribeck_curve", "white_noise",
+    "Schedule", "Sines", "ar1_noise", "bouc_wen_n2", "bouc_wen_yield", "clearance_dahl", "cogging", "cumulative_travel",
+    "dahl_exact", "fine_grid", "heun", "integrate", "linear_lag", "lugre", "maxwell_force", "mr_damper", "multisine",
+    "oscillator", "play", "play_rate", "ramp", "random_motion", "sgn", "sine", "staircase", "stribeck_curve",
+    "white_noise",
 ]
 
 
@@ -103,6 +107,64 @@ def multisine(rms: float, frequencies: Sequence[float], seed: int, fade: float =
     amp = rms * math.sqrt(2.0 / n)
     return Sines((amp,) * n, tuple(float(f) for f in frequencies), tuple(rng.uniform(0, 2 * math.pi, n)),
                  float(fade))
+
+
+def random_motion(peak: float, f_lo: float, f_hi: float, lines: int, seed: int, duration: float,
+                  fade: float = 0.25) -> Sines:
+    """Band-limited random displacement: ``lines`` sines at frequencies drawn uniformly in [f_lo, f_hi], amplitudes
+    uniform in [0.5, 1] (relative), phases uniform, faded in from rest over ``fade`` s, scaled so that the largest
+    |x| over [0, ``duration``] is ``peak``. Velocity and acceleration are exact (``Sines``)."""
+    rng = np.random.default_rng(seed)
+    freqs = np.sort(rng.uniform(f_lo, f_hi, lines))
+    amps = rng.uniform(0.5, 1.0, lines)
+    phases = rng.uniform(0, 2 * math.pi, lines)
+    raw = Sines(tuple(amps), tuple(freqs), tuple(phases), float(fade))
+    top = float(np.max(np.abs(raw.x(np.linspace(0.0, duration, int(duration * 2000) + 1)))))
+    return Sines(tuple(amps * peak / top), tuple(freqs), tuple(phases), float(fade))
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A control signal c(t) (a coil voltage, an underpressure), exactly linear between its breakpoints ``times``
+    (increasing) with ``values``, and held at the first and last value outside them. A slewed staircase or a ramp;
+    a record samples it, and where no corner falls between two samples the samples' linear interpolation is it."""
+
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def __call__(self, t) -> np.ndarray:
+        return np.interp(np.asarray(t, float), self.times, self.values)
+
+
+def staircase(duration: float, low: float, high: float, seed: int, hold: tuple[float, float] = (0.3, 0.8),
+              slew: float = 0.005, min_step: float = 0.3) -> Schedule:
+    """A random staircase on [0, ``duration``]: levels drawn uniformly in [low, high] (each at least ``min_step``
+    from the one before), each held a time drawn uniformly in ``hold``, changed by a linear ramp of ``slew`` s (an
+    amplifier's finite slew rate; the ramps start at arbitrary times, not on any sample grid)."""
+    if high - low <= 2 * min_step:
+        raise ValueError(f"staircase: the range [{low}, {high}] must be wider than twice min_step {min_step}")
+    rng = np.random.default_rng(seed)
+    level = float(rng.uniform(low, high))
+    times, values, t = [0.0], [level], 0.0
+    while True:
+        t += float(rng.uniform(*hold))
+        if t + slew >= duration:
+            break
+        new = level
+        while abs(new - level) < min_step:
+            new = float(rng.uniform(low, high))
+        times += [t, t + slew]
+        values += [level, new]
+        level, t = new, t + slew
+    times.append(float(duration))
+    values.append(level)
+    return Schedule(tuple(times), tuple(values))
+
+
+def ramp(duration: float, start: float, end: float, lead: float = 0.0) -> Schedule:
+    """``start`` held for ``lead`` s, a linear ramp to ``end`` until ``duration − lead``, then held."""
+    return Schedule((0.0, float(lead), float(duration - lead), float(duration)),
+                    (float(start), float(start), float(end), float(end)))
 
 
 def fine_grid(t: np.ndarray, refine: int) -> np.ndarray:
@@ -185,6 +247,57 @@ def dahl_exact(x, sigma0: float, Fc: float, z0: float = 0.0) -> np.ndarray:
     for k in range(1, len(x)):
         target = steps[k - 1] * level
         prev = target + (prev - target) * decay[k - 1]
+        z[k] = prev
+    return z
+
+
+def _riccati(w: float, d: float, a: float) -> float:
+    """w after a travel d of dw/dd = 1 − a w² (a constant), from w."""
+    if a > 0:
+        r = math.sqrt(a)
+        return math.tanh(r * d + math.atanh(min(max(r * w, -1 + 1e-15), 1 - 1e-15))) / r
+    if a < 0:
+        r = math.sqrt(-a)
+        return math.tan(r * d + math.atan(r * w)) / r
+    return w + d
+
+
+def bouc_wen_n2(x, beta: float, gamma: float, z0: float = 0.0) -> np.ndarray:
+    """The Bouc–Wen state z with n = 2 and A = 1 along a displacement path, exactly between consecutive points.
+
+    ż = ẋ − β |ẋ| z|z| − γ ẋ z² is rate-independent. Along a monotone step of length d in direction s, w = s z
+    obeys dw/dd = 1 − (γ + β sgn w) w², a Riccati equation with a constant coefficient a on either side of w = 0:
+    w = tanh(√a d + artanh(√a w0)) / √a for a > 0, tan(√−a d + arctan(√−a w0)) / √−a for a < 0, w0 + d for
+    a = 0. A step that starts with w < 0 (the state against the motion: unloading) is split where w reaches 0
+    (a travel −artanh(√a w0)/√a, −arctan(√−a w0)/√−a or −w0 with a = γ − β). Saturation |z| → 1/√(β + γ).
+    Use a refined path (reversals inside a step are then negligible)."""
+    x = np.asarray(x, float)
+    z = np.empty_like(x)
+    z[0] = prev = float(z0)
+    up, down = gamma + beta, gamma - beta
+    for k in range(1, len(x)):
+        step = x[k] - x[k - 1]
+        if step == 0.0:
+            z[k] = prev
+            continue
+        s = 1.0 if step > 0 else -1.0
+        d, w = abs(step), s * prev
+        if w < 0:
+            if down > 0:
+                r = math.sqrt(down)
+                to_zero = -math.atanh(max(r * w, -1 + 1e-15)) / r
+            elif down < 0:
+                r = math.sqrt(-down)
+                to_zero = -math.atan(r * w) / r
+            else:
+                to_zero = -w
+            if d < to_zero:
+                w, d = _riccati(w, d, down), 0.0
+            else:
+                w, d = 0.0, d - to_zero
+        if d > 0:
+            w = _riccati(w, d, up)
+        prev = s * w
         z[k] = prev
     return z
 

@@ -116,6 +116,33 @@ def maxwell_law(k, c, km, cm):
     return fine
 
 
+def mr_lag_law(voltage, c_a, c_b, alpha_a, alpha_b, k, beta, gamma, eta):
+    """An MR damper whose field follows the coil voltage v(t) (``voltage``, a ``generators.Schedule``) through a
+    first-order lag: u̇ = −η (u − v), u(0) = v(0); F = (c_a + c_b u) ẋ + (α_a + α_b u) z + k x with the Bouc–Wen
+    state z (n = 2, A = 1, β, γ; exact in displacement, ``bouc_wen_n2``) and u by the exact exponential
+    integrator (``linear_lag``: v is linear between the points of the fine grid but at the staircase's corners)."""
+
+    def fine(tf, sig):
+        x, v = sig.x(tf), sig.v(tf)
+        volts = voltage(tf)
+        u = g.linear_lag(tf, eta * volts, eta, y0=volts[0])
+        z = g.bouc_wen_n2(x, beta, gamma)
+        return (c_a + c_b * u) * v + (alpha_a + alpha_b * u) * z + k * x
+
+    return fine
+
+
+def control_friction_law(control, k, c, level, sign="exact", width=0.0):
+    """k x + c ẋ + level(p(t)) sgn(ẋ): a friction level that follows a control channel p(t) (``control``, a
+    ``generators.Schedule``) within the record; ``level`` a function of p."""
+
+    def law(t, sig):
+        v = sig.v(t)
+        return k * sig.x(t) + c * v + level(control(t)) * g.sgn(v, sign, width)
+
+    return law
+
+
 def osc_law(m, c, k, xi=0.0, k3=0.0, Fc=0.0, width=0.02, method="DOP853"):
     def extra(x, v, u):
         return xi * np.abs(x) * u + k3 * x**3 + Fc * g.sgn(v, "arctan", width)

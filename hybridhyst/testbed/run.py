@@ -82,7 +82,9 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
     trends = [s["effect"] for s in steps if s.get("kind", "effect") != "effect"]
     dropped = list((report.get("effects") or {}).get("dropped", []))
     params = report.get("after", {}).get("parameters", {})
-    fitted = {k: v.get("value") for k, v in params.items() if k.split(".", 1)[0].removesuffix("_added") in named}
+    library = (report.get("effects") or {}).get("keys", {})  # effect key -> library name (lag_voltage: control_lag)
+    fitted = {k: v.get("value") for k, v in params.items()
+              if library.get(k.split(".", 1)[0], k.split(".", 1)[0].removesuffix("_added")) in named}
     before, after = report["before"].get("test_rmse"), report["after"].get("test_rmse")
     ratio = after / case.noise if _number(after) is not None else None
     unexplained = report.get("unexplained") or {}
