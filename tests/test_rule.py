@@ -88,3 +88,13 @@ def test_the_disagreement_line_names_both_errors_and_their_direction():
     report = {"steps": [{**step, "kind": "effect", "accepted": True}], "removed": [], "rejected": [],
               "before": {"test_rmse": 0.3}, "after": {"test_rmse": 0.4}, "validation": {"kind": "records"}}
     assert any("step lugre:" in s and "rose" in s for s in summary_lines(report, "kip", "/tmp/run"))
+
+
+def test_a_pick_prefers_a_close_option_the_rule_would_accept():
+    """Two finalists within the noise of each other: the simpler one (lower criterion) would be refused as a step,
+    the better one accepted; the pick must not stop the loop by choosing the refused one."""
+    rule = Acceptance(0.02, "bic", 1000, noise=1.0)
+    options = [Judged(1.00, 10.0), Judged(1.001, 5.0)]
+    assert rule.pick(options) == 1
+    assert rule.pick(options, accepted=lambda i: i == 0) == 0
+    assert rule.pick(options, accepted=lambda i: False) == 1  # none would pass: the plain pick

@@ -463,10 +463,15 @@ class Loop:
         finals = [(cand, f, self.judge(f)) for cand, f in ranking[: int(o.top)] if f is not None]
         if not finals:
             return False
-        cand, c_fit, judged = finals[self.rule.pick([j for _, _, j in finals])]
-        # the current model at the candidate's resolution, too: a candidate that needed finer steps must beat it there
-        ic_ref = information_criterion(ref[c_fit.substeps], self.n_train, fit.k, self.rule.criterion)
-        accepted = self.rule.adds(judged, Judged(self.now.val, min(self.now.ic, ic_ref)))
+        def adds(i: int) -> bool:
+            # the current model at the candidate's resolution, too: one that needed finer steps must beat it there
+            _, f, j = finals[i]
+            ic_ref = information_criterion(ref[f.substeps], self.n_train, fit.k, self.rule.criterion)
+            return self.rule.adds(j, Judged(self.now.val, min(self.now.ic, ic_ref)))
+
+        index = self.rule.pick([j for _, _, j in finals], adds)
+        cand, c_fit, judged = finals[index]
+        accepted = adds(index)
         step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, self.now, accepted, evidence={
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
             "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}

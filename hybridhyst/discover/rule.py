@@ -97,10 +97,14 @@ class Acceptance:
         the noise of it."""
         return new.ic < old.ic and (within(new.val, old.val, self.margin / 2) or self._within_noise(new.val, old.val))
 
-    def pick(self, options: list[Judged]) -> int:
+    def pick(self, options: list[Judged], accepted=None) -> int:
         """Index of the option the rule prefers (lowest error; within the margin or the noise of it, lowest
-        criterion)."""
+        criterion). ``accepted(i)``, where given, says whether the rule would accept option i as a step: a
+        close option it would refuse is not preferred to one it would accept (a simpler rival within the noise of
+        the best must not stop the loop where the best would have passed)."""
         best = min((o.val for o in options), key=lambda v: v.key if isinstance(v, Score) else float(v))
         close = [i for i, o in enumerate(options)
                  if within(o.val, best, self.margin) or self._within_noise(o.val, best)]
+        if accepted is not None:
+            close = [i for i in close if accepted(i)] or close
         return min(close, key=lambda i: options[i].ic)
