@@ -172,3 +172,33 @@ def test_the_physics_residual_refuses_a_lagged_control_in_one_line(tmp_path):
                    "nominal_init.method=none")
     with pytest.raises(ValueError, match="lambda_phys=0 and module=physics or hybrid"):
         train.run(cfg)
+
+
+def test_simulate_resolves_its_step_or_says_it_cannot(tmp_path):
+    """The simulate app makes the check every app makes: a stiff spring on the default sine, which one sub-step
+    per sample turns into an overflow, is simulated at the sub-steps it needs; a response that the most sub-steps
+    allowed do not resolve is an error (a finite response can still be the integrator's, not the model's)."""
+    from hybridhyst.cli import simulate
+
+    def run(name, *extra):
+        with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+            cfg = compose("simulate", overrides=[f"run_dir={tmp_path / name}", "model=linear_oscillator",
+                                                 "model.effects.stiffness.k=1e9", "progress=false", *extra])
+        return simulate.run(cfg)
+
+    resolved = run("resolved")["records"]["sine"]
+    assert resolved["substeps"] > 1 and resolved["change"] <= 1e-3
+    with pytest.raises(ValueError, match="not resolved"):
+        run("capped", "solver.max_substeps=2", "solver.substeps=2", "model.effects.stiffness.k=1e6")
+
+
+def test_a_control_in_another_unit_than_the_models_is_one_line(tmp_path):
+    text = _error("fit:2", tmp_path, "+data.units.voltage=mV")
+    assert "control 'voltage' in 'mV'" in text and "reads it in 'V'" in text
+
+
+def test_a_control_the_model_does_not_read_is_noted(tmp_path, capsys):
+    from hybridhyst.cli import fit
+
+    fit.run(_compose("fit", tmp_path, "progress=false", "fit.steps=1", "fit.lbfgs_steps=0", "fit.start=model"))
+    assert "carry the control channel(s) ['voltage']" in capsys.readouterr().out

@@ -43,6 +43,7 @@ from .common import (
     to_plain,
     torch_settings,
     write_json,
+    write_model,
 )
 from .fit_report import (
     _fmt,
@@ -295,9 +296,11 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     summary["loop_records"] = loop_names
     summary["loop_caption"] = loop_caption(loop_names, held_out.names, chosen is not None)
+    summary["reuse"] = write_model(run_dir, model, "fitted", "fitted by hybridhyst-fit")
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
-    mark_complete(run_dir, "fit", ["config.yaml", "predictions.parquet", "report.md", "summary.json", "loop.png"])
+    mark_complete(run_dir, "fit", ["config.yaml", "predictions.parquet", "report.md", "summary.json", "loop.png",
+                                   "model.pt", "model/fitted.yaml"])
     say("\n".join(summary_lines(summary, run_dir)))
     return summary
 
@@ -319,6 +322,8 @@ def summary_lines(summary: dict, run_dir) -> list[str]:
     lines += textwrap.wrap(", ".join(values), 116, initial_indent="  ", subsequent_indent="  ")
     for note in (convergence_note(fit) if not fit.get("converged") else "", resolution_note(fit, "fit")):
         lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
+    if summary.get("reuse"):
+        lines.append(f"  the fitted model in another app: {summary['reuse']}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
     return lines
 

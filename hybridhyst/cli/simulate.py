@@ -7,6 +7,7 @@ studies (e.g. seed 001's Table 2) are run by ``hybridhyst-study`` (``hybridhyst.
 
 from __future__ import annotations
 
+import math
 import time
 
 import hydra
@@ -17,7 +18,9 @@ from omegaconf import DictConfig
 
 from ..analysis.finite import check_finite
 from ..data.decimate import decimate
-from ..simulate import simulate
+from ..data.records import Record
+from ..simulate import simulate, simulate_resolved
+from ..simulate.api import RESOLVED
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -63,19 +66,20 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         n = round(float(inp.duration_s) / float(inp.dt)) + 1
         t, u = np.arange(n) * float(inp.dt), np.zeros(n)
         initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
-    solver = cfg.solver
     conditions = dict(to_plain(cfg.conditions) or {})
     for effect in model.effects.values():  # what acts on a control (a lag, a saturation) reads a signal: a level
         control = getattr(effect, "control", None)  # given in `conditions` is held over the whole input
         if control in conditions:
             conditions[control] = np.full((1, len(t)), float(conditions[control]))
-    with torch.no_grad():
-        y = simulate(model, u[None], t=t, conditions=conditions or None, initial_state=initial,
-                     method=solver.method, substeps=int(solver.substeps), backend=solver.backend)[0].cpu().numpy()
+    signal = Record(name=kind, t=t, x=u, y=np.zeros_like(u), controls={k: v[0] for k, v in conditions.items()
+                                                                       if np.ndim(v) == 2},
+                    conditions={k: v for k, v in conditions.items() if np.ndim(v) != 2})
+    (y,), resolution = _resolved(model, [signal], cfg, initial)
+    y = y.cpu().numpy()
     frame = pd.DataFrame({"record": kind, "t": t, "u": u})
     for i, name in enumerate(_output_names(model)):
         frame[name] = y[:, i]
-    info = {"samples": len(t)}
+    info = {"samples": len(t), **resolution}
     if kind == "free_vibration" and "x" in frame:
         from ..analysis import free_vibration_frequency
 
@@ -90,9 +94,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     select = to_plain(cfg.input.select)  # a mapping {condition: value or [values]}, as split.select elsewhere
     downsample = int(cfg.input.downsample)
     records = [decimate(r, downsample) for r in load_records(cfg, select, where="input.select")]
-    solver = cfg.solver
-    with torch.no_grad():
-        preds = simulate(model, records, method=solver.method, substeps=int(solver.substeps), backend=solver.backend)
+    preds, resolution = _resolved(model, records, cfg)
     frames, info = [], {}
     for r, p in zip(records, preds):
         y = p.cpu().numpy()
@@ -100,8 +102,34 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)
-        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y)}
+        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y), **resolution}
     return frames, info
+
+
+def _resolved(model, records, cfg, initial=None) -> tuple[list, dict]:
+    """``records`` simulated at the fewest sub-steps, from ``solver.substeps`` up to ``solver.max_substeps``, at
+    which halving the step changes the response by at most 0.1 % (``solver.resolve``: the check every app makes,
+    ``simulate.simulate_resolved``), and ``{"substeps", "change"}``. A response no sub-step count resolves is an
+    error naming the sub-steps tried (with ``keep_going`` a warning): a coarse grid can give a finite response that
+    is the integrator's, not the model's; one that diverged at every count is left to ``_check_finite``."""
+    solver = cfg.solver
+    kwargs = {"method": solver.method, "backend": solver.backend, "initial_state": initial}
+    if not bool(solver.get("resolve", True)):
+        with torch.no_grad():
+            return simulate(model, records, substeps=int(solver.substeps), **kwargs), {
+                "substeps": int(solver.substeps), "change": None}
+    top = max(int(solver.get("max_substeps", 64)), int(solver.substeps))
+    out, substeps, change = simulate_resolved(model, records, substeps=int(solver.substeps), max_substeps=top,
+                                              **kwargs)
+    finite = all(bool(torch.isfinite(y).all()) for y in out)  # a diverged record: _check_finite names it
+    if finite and not change <= RESOLVED:
+        text = (f"the response is not resolved: halving the step at {substeps} sub-steps per sample (solver."
+                f"max_substeps={top}) still changes it by more than {RESOLVED:.1%}; sample finer (input.downsample) "
+                "or raise solver.max_substeps")
+        if not bool(cfg.get("keep_going", False)):
+            raise ValueError(text)
+        say(f"warning: {text}", error=True)
+    return out, {"substeps": substeps, "change": change if math.isfinite(change) else None}
 
 
 def _check_finite(frames: list[pd.DataFrame], outputs: list[str], records: dict, cfg) -> list:

@@ -217,9 +217,10 @@ def check_model_data(model, split, what: str = "model") -> str:
     """Every record of ``split`` (``Split`` or a record set) fits the model, else a one-line ``ValueError``: it has
     the conditions the model's parameter functions need (``physics.models.conditions_used``), as numbers, and the
     input and response units (``Record.units`` "x", "y") the model declares (``NominalModel.data_units``; nothing
-    is converted). Units the model leaves symbolic are not checked. Records that declare no unit for a channel
-    are taken to be in the model's (written into ``Record.units``, so reports label them): the returned sentence
-    says so, for the app to show ('' where every record declared its units)."""
+    is converted), and a control channel's unit where both name one. Units the model leaves symbolic are not
+    checked. Records that declare no unit for a channel are taken to be in the model's (written into
+    ``Record.units``, so reports label them): the returned notes say so, and name control channels the model does
+    not read, for the app to show ('' where there is nothing to say)."""
     from ..data.splits import Split, check_conditions
     from ..physics.models import conditions_used
 
@@ -237,11 +238,23 @@ def check_model_data(model, split, what: str = "model") -> str:
             raise ValueError(f"record {record.name!r} has units {got} but the {what} {model.name!r} works in {need}: "
                              "nothing is converted; give data.units in the model's units (data.units.x is the input "
                              "column's, data.units.y the response's) or convert the data")
+    for record in records:  # a control channel's unit, where both the record and the model name one
+        for control in record.controls:
+            have, need = record.units.get(control), model.units.get(control)
+            if have is not None and need is not None and have != need:
+                raise ValueError(f"record {record.name!r} has control {control!r} in {have!r} but the {what} "
+                                 f"{model.name!r} reads it in {need!r}: nothing is converted; give data.units."
+                                 f"{control} in the model's unit or convert the data")
     assumed = {k: unit for k, unit in want.items() if any(r.units.get(k) is None for r in records)}
     for record in records:  # filled only once every record has passed the check
         record.units.update({k: unit for k, unit in assumed.items() if record.units.get(k) is None})
-    if not assumed:
-        return ""
-    taken = ", ".join(f"{label[k]} in {u}" for k, u in assumed.items())
-    return (f"note: the records declare no units for {' and '.join(label[k] for k in assumed)} (data.units): they are "
-            f"taken to be the {what} {model.name!r}'s ({taken}); nothing is checked or converted")
+    notes = []
+    unread = sorted({c for r in records for c in r.controls} - set(names))
+    if unread:
+        notes.append(f"note: the records carry the control channel(s) {unread} (data.controls), which the {what} "
+                     f"{model.name!r} does not read: no parameter function or effect names them")
+    if assumed:
+        taken = ", ".join(f"{label[k]} in {u}" for k, u in assumed.items())
+        notes.append(f"note: the records declare no units for {' and '.join(label[k] for k in assumed)} (data.units): "
+                     f"they are taken to be the {what} {model.name!r}'s ({taken}); nothing is checked or converted")
+    return "\n".join(notes)

@@ -19,8 +19,9 @@ def _condition_tensor(conditions: dict[str, torch.Tensor] | None, name: str, lik
     if conditions is None or name not in conditions:
         known = sorted(conditions) if conditions else []
         raise ValueError(
-            f"parameter function needs condition {name!r} but the records give {known}; "
-            f"add a {name!r} condition to every record or use a constant parameter"
+            f"parameter function needs condition {name!r} but the records give {known}; give every record a "
+            f"{name!r} condition (data.conditions) or control channel (data.controls) — for a generated input, "
+            f"'+conditions.{name}=<value>' — or use a constant parameter"
         )
     return torch.as_tensor(conditions[name], dtype=like.dtype, device=like.device)
 
