@@ -252,7 +252,8 @@ def check_model_data(model, split, what: str = "model") -> str:
     unread = sorted({c for r in records for c in r.controls} - set(names))
     if unread:
         notes.append(f"note: the records carry the control channel(s) {unread} (data.controls), which the {what} "
-                     f"{model.name!r} does not read: no parameter function or effect names them")
+                     f"{model.name!r} does not read: no parameter function or effect names them "
+                     "(hybridhyst-discover offers them to every parameter)")
     if assumed:
         taken = ", ".join(f"{label[k]} in {u}" for k, u in assumed.items())
         notes.append(f"note: the records declare no units for {' and '.join(label[k] for k in assumed)} (data.units): "
