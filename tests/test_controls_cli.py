@@ -3,7 +3,6 @@ one-line errors for a control given wrongly."""
 
 from __future__ import annotations
 
-import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -15,26 +14,13 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 from hybridhyst.cli.common import CONF_DIR
+from tests.test_own_data import example_script, readme_commands
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "controls"
 
 
-def readme_commands() -> dict[str, list[str]]:
-    """{app or app:n: overrides} of the commands in README's "Control inputs" code block."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = text.split("## Control inputs", 1)[1].split("\n## ", 1)[0].split("```bash\n", 1)[1].split("```", 1)[0]
-    commands: dict[str, list[str]] = {}
-    for command in block.replace("\\\n", " ").splitlines():
-        words = shlex.split(command, comments=True)
-        if words and words[0].startswith("hybridhyst-"):
-            app = words[0].removeprefix("hybridhyst-")
-            n = sum(1 for key in commands if key.split(":")[0] == app)
-            commands[f"{app}:{n + 1}" if n else app] = words[1:]
-    return commands
-
-
-COMMANDS = readme_commands()
+COMMANDS = readme_commands("Control inputs")
 
 
 def _compose(app: str, tmp_path: Path, *extra: str, csv: Path | None = None):
@@ -51,12 +37,7 @@ def test_the_readme_documents_fit_discover_and_train_with_the_control():
 
 
 def test_the_example_is_what_make_example_writes(tmp_path):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("make_example", EXAMPLE / "make_example.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    written = module.main(tmp_path / "mr.csv")
+    written = example_script(EXAMPLE / "make_example.py").main(tmp_path / "mr.csv")
     assert written.read_bytes() == (EXAMPLE / "mr_damper_voltage.csv").read_bytes()
     assert written.stat().st_size < 600_000
 

@@ -12,6 +12,7 @@ from omegaconf import OmegaConf
 from hybridhyst.physics import build_model, model_config
 from hybridhyst.physics.compositions import COMPOSITIONS
 from hybridhyst.physics.effects import EFFECTS
+from hybridhyst.physics.effects.base import ControlEffect
 from hybridhyst.physics.models import conditions_used
 from hybridhyst.physics.parameters import ExpRise, Linear, NeuralFunction, PerCondition
 from hybridhyst.simulate import simulate
@@ -43,7 +44,7 @@ def _response(model):
     u = torch.stack([torch.sin(2 * math.pi * t), 0.5 * torch.sin(3 * math.pi * t)]) * 0.1
     conditions = {c: LEVEL for c in conditions_used(model)}
     for effect in model.effects.values():  # what acts on a control channel reads a signal
-        if hasattr(effect, "control"):
+        if isinstance(effect, ControlEffect):
             conditions[effect.control] = LEVEL + 0.2 * u / u.abs().max()
     return simulate(model, u, t, conditions=conditions, method="heun").detach()
 

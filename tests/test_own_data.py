@@ -19,10 +19,11 @@ EXAMPLE = ROOT / "examples" / "own_data"
 TRAINING = ["p0.01", "p0.02", "p0.03", "p0.04", "p0.06", "p0.07", "p0.08"]
 
 
-def readme_commands() -> dict[str, list[str]]:
-    """{app: overrides} of the commands in README's "Your own measurements" code block."""
+def readme_commands(title: str = "Your own measurements") -> dict[str, list[str]]:
+    """{app: overrides} of the commands in the first bash block of README's section ``title`` (a second command of
+    one app: "app:2")."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text.split("## Your own measurements", 1)[1].split("\n## ", 1)[0]
+    section = text.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
     block = section.split("```bash\n", 1)[1].split("```", 1)[0]
     commands: dict[str, list[str]] = {}
     for command in block.replace("\\\n", " ").splitlines():
@@ -35,6 +36,16 @@ def readme_commands() -> dict[str, list[str]]:
 
 
 COMMANDS = readme_commands()
+
+
+def example_script(path: Path):
+    """An example folder's generator script as a module (its ``main(out)`` writes the example file)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _compose(app: str, tmp_path: Path, *extra: str):
@@ -51,12 +62,7 @@ def test_the_readme_documents_every_app():
 
 
 def test_the_example_is_what_make_example_writes(tmp_path):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("make_example", EXAMPLE / "make_example.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    written = module.main(tmp_path / "loops.csv")
+    written = example_script(EXAMPLE / "make_example.py").main(tmp_path / "loops.csv")
     assert written.read_bytes() == (EXAMPLE / "damper_loops.csv").read_bytes()
     assert (EXAMPLE / "damper_loops.csv").stat().st_size < 300_000
 

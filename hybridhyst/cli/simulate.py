@@ -19,6 +19,7 @@ from omegaconf import DictConfig
 from ..analysis.finite import check_finite
 from ..data.decimate import decimate
 from ..data.records import Record
+from ..physics.effects.base import ControlEffect
 from ..simulate import simulate, simulate_resolved
 from ..simulate.api import RESOLVED
 from .common import (
@@ -68,9 +69,8 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         initial = torch.tensor([list(inp.initial_state)], dtype=torch.get_default_dtype())
     conditions = dict(to_plain(cfg.conditions) or {})
     for effect in model.effects.values():  # what acts on a control (a lag, a saturation) reads a signal: a level
-        control = getattr(effect, "control", None)  # given in `conditions` is held over the whole input
-        if control in conditions:
-            conditions[control] = np.full((1, len(t)), float(conditions[control]))
+        if isinstance(effect, ControlEffect) and effect.control in conditions:  # given in `conditions` is held
+            conditions[effect.control] = np.full((1, len(t)), float(conditions[effect.control]))  # over the input
     signal = Record(name=kind, t=t, x=u, y=np.zeros_like(u), controls={k: v[0] for k, v in conditions.items()
                                                                        if np.ndim(v) == 2},
                     conditions={k: v for k, v in conditions.items() if np.ndim(v) != 2})

@@ -34,7 +34,7 @@ from ..analysis.noise import noise_sd
 from ..data.records import Record, RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
-from ..identify.space import outside_domain
+from ..identify.space import condition_ranges, outside_domain
 from ..physics.models import DrivenOscillator, conditions_used
 from ..progress import progress as progress_bar
 from ..settings import intra_op_threads
@@ -89,11 +89,10 @@ def _controls(conditions, train) -> dict[str, list[float]]:
     every control the records carry (``conditions`` true) or those named; none with ``conditions`` false."""
     if not conditions:
         return {}
-    names = sorted({k for r in train for k in r.controls})
+    names = {c for c in train[0].controls if all(c in r.controls for r in train)}
     if not isinstance(conditions, bool):
-        names = [c for c in names if c in conditions]
-    return {c: [min(float(r.controls[c].min()) for r in train), max(float(r.controls[c].max()) for r in train)]
-            for c in names if all(c in r.controls for r in train)}
+        names &= set(conditions)
+    return {c: list(span) for c, span in condition_ranges(train).items() if c in names}
 
 
 def _parameters(model) -> dict:

@@ -50,6 +50,7 @@ import torch
 from torch import nn
 
 from ..data.batch import numeric_conditions
+from ..physics.effects.base import signals
 from ..physics.parameters import FunctionCoordinate, ParameterFunction, ParameterSpec, render_unit
 
 __all__ = ["Box", "Coordinate", "SearchSpace", "condition_ranges", "outside_domain", "trend_scale"]
@@ -330,7 +331,7 @@ class SearchSpace(Box):
         for c in self.held:
             cols[(c.effect, c.param)][c.position] = X.new_full((N,), c.value)
         out: dict[str, dict[str, torch.Tensor]] = {}
-        follow = {k for k, v in (conditions or {}).items() if v.ndim == 2}
+        follow = signals(conditions)
         for (key, pname), fn in self.functions.items():
             col = cols[(key, pname)]
             coords = torch.stack(col, dim=1) if col else X.new_zeros((N, 0))

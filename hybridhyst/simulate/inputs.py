@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import torch
 
+from ..physics.effects.base import signals
 from ..physics.models import InputSample
 
 
@@ -87,7 +88,7 @@ def with_controls(U: torch.Tensor, conditions: dict | None) -> tuple[torch.Tenso
     """The input ``(batch, time, 3)`` with the control channels among ``conditions`` (the ``(batch, time)``
     ones, in sorted order) as further columns, interpolated inside the sample intervals like the input; and
     their names."""
-    names = tuple(sorted(k for k, v in (conditions or {}).items() if v.ndim == 2))
+    names = tuple(sorted(signals(conditions)))
     if not names:
         return U, ()
     return torch.cat([U, torch.stack([conditions[c].to(U) for c in names], dim=-1)], dim=-1), names

@@ -86,7 +86,9 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
         check_model_data(nominal, dm.split, "model")
-        acting = [key for key, e in nominal.effects.items() if getattr(e, "control", None)]
+        from ..physics.effects.base import ControlEffect
+
+        acting = [key for key, e in nominal.effects.items() if isinstance(e, ControlEffect)]
         if acting and (kind == "std_pinn" or float(loss.lambda_phys) > 0):
             raise ValueError(f"the physics residual (lambda_phys > 0, std_pinn) evaluates the law at collocation "
                              f"points, where an effect acting on a control ({', '.join(acting)}: a lag, a saturation) "

@@ -27,8 +27,8 @@ from torch import nn
 from ..parameters import Fixed, ParameterFunction, ParameterSpec, build_function, render_unit
 
 __all__ = [
-    "Effect", "Kinematics", "abs_pow", "absolute", "clamp", "exp", "rates", "sigmoid", "sign", "smooth_sign", "step",
-    "tanh",
+    "ControlEffect", "Effect", "Kinematics", "abs_pow", "absolute", "clamp", "exp", "rates", "sigmoid", "sign",
+    "smooth_sign", "step", "tanh",
 ]
 
 
@@ -340,3 +340,29 @@ class Effect(nn.Module):
 
 
 _DOMAIN_WORDS = {"positive": "a value > 0", "nonnegative": "a value >= 0"}
+
+
+class ControlEffect(Effect):
+    """Base of the effects that act on a control channel (``Kinematics.controls``) for the effects listed after
+    them: the control's name is an option (``control``), listed by ``physics.conditions_used`` like a parameter
+    function's condition, and ``read`` is the control at this instant (a one-line error where the records do not
+    carry it)."""
+
+    def __init__(self, control: str = "voltage", **values):
+        super().__init__(**values)
+        if not isinstance(control, str) or not control:
+            raise ValueError(f"effect {self.name!r}: control must name a control channel, got {control!r}")
+        self.control = control
+
+    @property
+    def condition(self) -> str:
+        return self.control
+
+    def options(self) -> dict:
+        return {"control": self.control}
+
+    def read(self, kin: Kinematics):
+        if self.control not in kin.controls:
+            raise ValueError(f"effect {self.name!r} acts on the control {self.control!r}, but the records carry "
+                             f"{sorted(kin.controls) or 'no control channel'}; name its column in data.controls")
+        return kin.controls[self.control]

@@ -7,10 +7,10 @@ from typing import ClassVar
 import torch
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, rates
+from .base import ControlEffect, Kinematics, rates
 
 
-class ControlLag(Effect):
+class ControlLag(ControlEffect):
     """The control ``c`` seen by the effects listed after this one lags the measured one: u̇ = −η (u − c).
 
     A magnetorheological damper's field follows the commanded voltage through the coil's inductance (Spencer
@@ -33,33 +33,13 @@ class ControlLag(Effect):
         "eta": ParameterSpec(100.0, "1/t", (1e-6, 1e9), "positive", doc="lag rate (1 / time constant)"),
     }
 
-    def __init__(self, control: str = "voltage", **values):
-        super().__init__(**values)
-        if not isinstance(control, str) or not control:
-            raise ValueError(f"effect 'control_lag': control must name a control channel, got {control!r}")
-        self.control = control
-
-    @property
-    def condition(self) -> str:
-        """The control this effect reads (``physics.conditions_used`` lists it with the functions' conditions)."""
-        return self.control
-
-    def options(self) -> dict:
-        return {"control": self.control}
-
-    def _read(self, kin: Kinematics):
-        if self.control not in kin.controls:
-            raise ValueError(f"effect 'control_lag' follows the control {self.control!r}, but the records carry "
-                             f"{sorted(kin.controls) or 'no control channel'}; name its column in data.controls")
-        return kin.controls[self.control]
-
     def initial_state(self, p, batch, controls=None):
         if controls and self.control in controls:
             return torch.as_tensor(controls[self.control]).expand(batch)[:, None].clone()
         return super().initial_state(p, batch)
 
     def rate(self, p, kin: Kinematics, state):
-        return rates(-p["eta"] * (state[:, 0] - self._read(kin)))
+        return rates(-p["eta"] * (state[:, 0] - self.read(kin)))
 
     def transform(self, p, kin: Kinematics, state):
         return kin.with_control(self.control, state[:, 0])

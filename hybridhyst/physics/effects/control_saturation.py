@@ -5,10 +5,10 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..parameters import ParameterSpec
-from .base import Effect, Kinematics, tanh
+from .base import ControlEffect, Kinematics, tanh
 
 
-class ControlSaturation(Effect):
+class ControlSaturation(ControlEffect):
     """The control ``c`` seen by the effects listed after this one saturates smoothly: c_s = c_max tanh(c / c_max).
 
     A magnetorheological fluid's yield stress stops growing once its particles' magnetisation saturates; an
@@ -27,25 +27,9 @@ class ControlSaturation(Effect):
         "c_max": ParameterSpec(1.0, "c", (1e-9, 1e9), "positive", doc="saturation level of the control"),
     }
 
-    def __init__(self, control: str = "voltage", **values):
-        super().__init__(**values)
-        if not isinstance(control, str) or not control:
-            raise ValueError(f"effect 'control_saturation': control must name a control channel, got {control!r}")
-        self.control = control
-
-    @property
-    def condition(self) -> str:
-        return self.control
-
-    def options(self) -> dict:
-        return {"control": self.control}
-
     def param_unit(self, pname: str, units: dict[str, str] | None = None) -> str:
         return (units or {}).get(self.control, f"unit of {self.control}")
 
     def transform(self, p, kin: Kinematics, state):
-        if self.control not in kin.controls:
-            raise ValueError(f"effect 'control_saturation' acts on the control {self.control!r}, but the records "
-                             f"carry {sorted(kin.controls) or 'no control channel'}; name its column in data.controls")
         c_max = p["c_max"]
-        return kin.with_control(self.control, c_max * tanh(kin.controls[self.control] / c_max))
+        return kin.with_control(self.control, c_max * tanh(self.read(kin) / c_max))
