@@ -317,7 +317,7 @@ def test_vpptd_generator_layout_and_noise():
 
 
 def test_vpptd_peak_torque_of_seed_001():
-    """DESIGN.md: 1:3 loops at ±10°, 0.79 Hz peak at about 19 Nm (0.01 MPa) and 38 Nm (0.09 MPa)."""
+    """Seed 001 (the paper): 1:3 loops at ±10°, 0.79 Hz peak at about 19 Nm (0.01 MPa) and 38 Nm (0.09 MPa)."""
     loops = load_builtin("vpptd", mixtures=["1:3"], pressures=[0.01, 0.09], cycles=2, samples_per_cycle=300)
     peaks = [abs(r.y[300:]).max() for r in loops]
     assert peaks[0] == pytest.approx(19.0, rel=0.2) and peaks[1] == pytest.approx(38.0, rel=0.2)

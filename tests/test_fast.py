@@ -46,26 +46,19 @@ def test_fast_path_equals_reference_for_every_composition(name, float64):
     _assert_agree(model, u, t, conditions={"pressure_mpa": torch.tensor([0.03, 0.07])}, substeps=2)
 
 
-# every library effect with non-neutral values, alone in both structures (with a spring for stability)
-EFFECT_VALUES = {
-    "viscous": {"c": 0.3}, "coulomb": {"Fc": 0.5, "v_s": 0.2}, "asymmetric_coulomb": {"Fc": 0.5, "dF": 0.2, "v_s": 0.2},
-    "linear_stiffness": {"k": 2.0}, "cubic_stiffness": {"k3": 0.7}, "dahl": {"Fc": 1.0, "sigma0": 5.0},
-    "lugre": {"Fc": 1.0, "Fs": 1.4, "vs": 0.5, "sigma0": 5.0, "sigma1": 0.1, "sigma2": 0.05},
-    "stribeck": {"dFs": 0.4, "vs": 0.5, "v_s": 0.2}, "backlash": {"r": 0.1}, "inertia": {"m": 0.2},
-    "attenuation": {"xi": 0.3}, "time_delay": {"tau": 0.013}, "travel_drift": {"dF": 0.4, "v_s": 0.2},
-    "bouc_wen": {"alpha": 0.3, "k": 2.0, "k1": 0.1, "D": 1.2, "A": 1.0, "beta": 0.5, "gamma": 0.3, "n": 1.7},
-    "bouc_wen_normalised": {"omega": 1.5, "xi": 0.1, "alpha": 0.3, "A": 1.0, "beta": 0.3, "gamma": 0.5, "n": 1.48},
-    "clearance": {"sigma0": 5.0, "Fc": 1.0, "a": 0.2, "r": 0.05}, "maxwell": {"k_m": 2.0, "tau": 0.1},
-}
+# every library effect at its own non-neutral example values (Effect.example_values), alone in both structures
+# (with a spring for stability); what acts on a control channel and Spencer's MR damper need a control: their
+# cases are in tests/test_controls.py, networks' in tests/test_neural.py
+CONTROL_EFFECTS = {"control_lag", "control_saturation", "spencer_mr"}
+EFFECT_VALUES = {name: dict(cls.example_values) for name, cls in EFFECTS.items()
+                 if name != "neural" and name not in CONTROL_EFFECTS}
 
 
-CONTROL_EFFECTS = {"control_lag", "control_saturation", "spencer_mr"}  # their cases: tests/test_controls.py
-
-
-def test_every_library_effect_has_a_fast_case():
-    physical = set(EFFECTS) - {"neural"} - set(CONTROL_EFFECTS)
-    assert set(EFFECT_VALUES) == physical  # a new effect must be added here (networks: tests/test_neural.py,
-    # what acts on a control channel and Spencer's MR damper: tests/test_controls.py)
+def test_every_library_effect_declares_example_values():
+    missing = sorted(name for name, cls in EFFECTS.items() if name != "neural" and not cls.example_values)
+    assert not missing, f"declare example_values on {missing} (the values the compiled-vs-reference tests use)"
+    for name, cls in EFFECTS.items():
+        assert set(cls.example_values) <= set(cls.specs) | set(cls.start), name
 
 
 def _every_effect(structure: str):

@@ -1,4 +1,4 @@
-"""Published numbers reproduced by the seed compositions (DESIGN.md "Units")."""
+"""Published numbers reproduced by the seed compositions (docs/units.md)."""
 
 import math
 
@@ -82,7 +82,7 @@ def test_boucwen_benchmark_true_system_reproduces_multisine_test_output(float64)
 
 
 def test_seed003_piezo_output_at_80_volts_is_about_170_um(float64):
-    """Quasi-static 80 V: the nominal model's displacement is about 170 µm with h in µm (DESIGN.md)."""
+    """Quasi-static 80 V: the nominal model's displacement is about 170 µm with h in µm."""
     model = piezo_attenuation().double()
     t = torch.arange(2001, dtype=torch.float64) * 2e-5
     u = 80 * torch.clamp(t / 0.02, max=1.0)  # ramp to 80 V in 20 ms, then hold
@@ -92,7 +92,7 @@ def test_seed003_piezo_output_at_80_volts_is_about_170_um(float64):
 
 
 def test_seed000_viscous_coefficient_is_reported_per_radian():
-    """c multiplies φ̇ in rad/s (DESIGN.md "Units"), so reports give it in Nm·s/rad, not the model's Nm·s/deg."""
+    """c multiplies φ̇ in rad/s (docs/units.md), so reports give it in Nm·s/rad, not the model's Nm·s/deg."""
     table = vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0).parameter_table()
     assert table["viscous"]["c"]["unit"] == "Nm*s/rad"
     from hybridhyst.identify import SearchSpace  # identification's tables read the same unit

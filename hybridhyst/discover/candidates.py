@@ -20,13 +20,6 @@ from ..physics.parameters import Constant, Linear
 __all__ = ["Candidate", "Scales", "condition_candidates", "control_candidates", "effect_candidates",
            "library_candidates", "start_candidates"]
 
-# Effects left out of the default candidate list: bouc_wen_normalised is seed 002's re-parametrisation of
-# bouc_wen (the same family twice would only split the evidence); the neural effect names no physical effect
-# (the loop measures the structure left with its own residual network instead).
-# not offered by name: a normalised duplicate, networks, and what acts on a control channel (offered per control the
-# records carry, ``control_candidates``) or is a whole device law (Spencer's MR damper)
-EXCLUDED = {"bouc_wen_normalised", "neural", "control_lag", "control_saturation", "spencer_mr"}
-
 
 @dataclass(frozen=True)
 class Scales:
@@ -115,25 +108,24 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
 
     Amplitude-like parameters (those with a neutral value, and forces [F]) start small (0.05 and 0.3 of
     their scale); shape parameters at their scale (or default when dimensionless) and 10× that. An effect
-    may give ``discovery_units = {parameter: unit template}`` for parameters whose literal unit is "-" but
-    whose size follows the data (Bouc–Wen's β, γ act on z ~ x: "1/x"), and ``discovery_fixed = {parameter:
-    value}`` for parameters held fixed in the candidate (Bouc–Wen is added in its identifiable normalised
-    form). Effects with neutral values also start at them: the fitted model itself.
+    declares what the loop reads on its class (``Effect.discovery_candidate``, ``discovery_units``,
+    ``discovery_fixed``, ``needs_drive``). Effects with neutral values also start at them: the fitted model
+    itself.
     """
     present = {e.name for e in model.effects.values()}
     out = []
     for name in names if names is not None else sorted(EFFECTS):
         cls = EFFECTS[name]
-        if name in present or (names is None and name in EXCLUDED):
+        if name in present or (names is None and not cls.discovery_candidate):
             continue
         if not cls.specs:
             raise ValueError(f"effect {name!r} has no physical parameters to identify; it cannot be a candidate")
-        if name == "attenuation" and not isinstance(model, DrivenOscillator):
-            continue  # F = ξ|x|u needs a separate input u; on a damper law it is a cubic-like stiffness
+        if cls.needs_drive and not isinstance(model, DrivenOscillator):
+            continue
         key = name if name not in model.effects else f"{name}_added"
         bounds, low, high, amplitudes = {}, {}, {}, set()
-        hints = getattr(cls, "discovery_units", {})
-        held = dict(getattr(cls, "discovery_fixed", {}))
+        hints = cls.discovery_units
+        held = dict(cls.discovery_fixed)
         free = {p: spec for p, spec in cls.specs.items() if p not in held}
         for pname, spec in free.items():
             scale = scales.of_unit(hints.get(pname, spec.unit))

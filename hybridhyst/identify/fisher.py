@@ -4,7 +4,7 @@ With residuals r(θ) of M samples and noise standard deviation σ, the Fisher in
 Gauss–Newton Hessian of the negative log-likelihood) is H = Jᵀ J / σ², J = ∂ŷ/∂θ (M × D). Positive
 coordinates are analysed in log space (θ = log x, so ∂ŷ/∂log x = x ∂ŷ/∂x): an eigenvector v with a large
 eigenvalue is an identifiable combination Π x_i^(v_i) (e.g. α·k), one with an eigenvalue near zero a
-direction the data cannot see (raw Bouc–Wen D, A, α, k trade off; DESIGN.md "Units"). Standard
+direction the data cannot see (raw Bouc–Wen D, A, α, k trade off; docs/units.md). Standard
 deviations come from the pseudo-inverse of H.
 """
 

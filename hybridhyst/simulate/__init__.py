@@ -1,4 +1,4 @@
-"""The only place where time is integrated (see DESIGN.md "Packages and their one job")."""
+"""The only place where time is integrated (docs/architecture.md)."""
 
 from .api import jacobian_covers as jacobian_covers
 from .api import resolved_substeps as resolved_substeps

@@ -1,6 +1,6 @@
 """Seed 000 as a study: the 4-parameter VPPTD model identified per underpressure by seed 000's "PINN".
 
-Model (seed 000, eq. 1): M = c·φ̇ + k·φ + k₂·φ³ + M_s·sgn(φ̇), φ [deg], φ̇ [rad/s] (DESIGN.md "Units"),
+Model (seed 000, eq. 1): M = c·φ̇ + k·φ + k₂·φ³ + M_s·sgn(φ̇), φ [deg], φ̇ [rad/s] (docs/units.md),
 M [Nm]; ``hybridhyst.physics.compositions.vpptd_algebraic``. Data: 1:3-mixture loops (±10°, 0.79 Hz) of
 the seed 001 modified Bouc–Wen model (``load_vpptd``), so the 4-parameter model has a model-error floor.
 
@@ -44,7 +44,7 @@ PARAMS = {"c": ("viscous", "c"), "k": ("stiffness", "k"), "k2": ("cubic", "k3"),
 UNITS = {"c": "Nm·s/rad", "k": "Nm/deg", "k2": "Nm/deg³", "Ms": "Nm"}
 LABELS = {"c": "c [Nm·s/rad]", "k": "k [Nm/deg]", "k2": "k₂ [Nm/deg³]", "Ms": "M_s [Nm]"}
 # Seed 000's text (Results, Fig. 8 discussion): (parameter, underpressure [MPa], value). c is printed in
-# Nm·s/deg and read in Nm·s/rad (DESIGN.md "Units"); M_s is "over 15 Nm" at 0.08 MPa. SEED000_QUOTED (the
+# Nm·s/deg and read in Nm·s/rad (docs/units.md); M_s is "over 15 Nm" at 0.08 MPa. SEED000_QUOTED (the
 # composition) files the upper-end values under 0.09 MPa and k₂ = 0.0055 at both ends.
 TEXT_QUOTES = [("c", 0.01, 6.7), ("c", 0.07, 8.3), ("k", 0.01, 0.65), ("k", 0.08, 1.65), ("k2", 0.08, 0.0055),
                ("k2", 0.09, 0.0145), ("Ms", 0.01, 9.5), ("Ms", 0.08, 15.0)]

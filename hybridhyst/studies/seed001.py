@@ -3,7 +3,7 @@
 For each ABS/NBR mixture: noisy torque–angle loops (±10°, 0.79 Hz) of Table 1's model (``load_vpptd``)
 at a few underpressures; ``identify.identify`` fits the modified Bouc–Wen law with every parameter a
 polynomial in p (the degrees and the search box are options, the same for every mixture) to all of them
-jointly. Raw Bouc–Wen parameters are not identifiable (DESIGN.md "Units"), so the identified model is
+jointly. Raw Bouc–Wen parameters are not identifiable (docs/units.md), so the identified model is
 compared with Table 1's through responses: loops at every pressure 0.01 … 0.09 MPa (fitted and held out),
 peak torque, the identifiable combinations (``identifiable_combinations``), the rig's free-vibration
 frequency (Table 2, by FFT and by turning points) and its forced response at 0.3 Hz under a fast step and

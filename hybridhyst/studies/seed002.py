@@ -7,7 +7,7 @@ energy (``analysis.loop_metrics``), fits exponential rise-to-maximum trends of t
 model with parameters as exponential functions of p (eqs. 5–13). The measured loops are not published, so:
 
 * reference data: seed 002 Table 1 (its metrics, quoted below) — shown beside, never used as a model check
-  (Table 2's parameters diverge: γ + β < 0 in every row, DESIGN.md "Units");
+  (Table 2's parameters diverge: γ + β < 0 in every row, docs/units.md);
 * hybridhyst's loops: seed 001's modified Bouc–Wen law for the ABS mixture (``load_vpptd``) driven at
   seed 002's amplitude and cycle period;
 * fits to those loops at each pressure: Monte Carlo (seed 002) next to ``identify``; then the B–W–p model

@@ -22,7 +22,7 @@ def identifiable_combinations(model, pressures) -> dict[str, np.ndarray]:
 
     z → s z (A → s A; β, γ → s^(1−n) β, s^(1−n) γ; (1 − α) k → (1 − α) k / s) and D → λ D (A, β, γ → λ A,
     λ β, λ γ; (1 − α) k → (1 − α) k / λ), each with α k and α k1 held, leave the torque unchanged
-    (DESIGN.md "Units"); these combinations are invariant under both:
+    (docs/units.md); these combinations are invariant under both:
 
     ``elastic_k = α k`` [Nm/deg], ``cubic_k1 = α k1`` [Nm/deg³], ``hysteretic_k0 = (1 − α) k A`` [Nm/deg]
     (initial slope of the hysteretic torque), ``hysteretic_torque = (1 − α) D k (A / (β + γ))^(1/n)`` [Nm]

@@ -2,7 +2,7 @@
 
 M = c φ̇ + k φ + k₂ φ³ + M_s sgn(φ̇)   (eq. 1)
 
-Units (DESIGN.md "Units"): φ in deg, M in Nm, and φ̇ in **rad/s** — only then do the quoted c
+Units (docs/units.md): φ in deg, M in Nm, and φ̇ in **rad/s** — only then do the quoted c
 (≈ 6.7–8.3, printed as Nm·s/deg) and the quoted peak torques (just over 20 Nm at 0.01 MPa, about
 40 Nm at 0.09 MPa for a ±10°, 0.8 Hz loop) agree; with φ̇ in deg/s the viscous term alone would
 exceed 300 Nm. The composition therefore scales the velocity by π/180 inside the viscous term.

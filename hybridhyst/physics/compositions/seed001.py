@@ -5,7 +5,7 @@ Model (eqs. 1–2, with eq. 2's misplaced |z| corrected)::
     M  = c φ̇ + α (k φ + k₁ φ³) + (1 − α) D k z + M_s sgn(φ̇)
     ż  = (A φ̇ − β |φ̇| |z|^(n−1) z − γ φ̇ |z|^n) / D
 
-Literal-degree convention (DESIGN.md "Units"): φ in deg, φ̇ in deg/s, M in Nm, and the rig's inertia
+Literal-degree convention (docs/units.md): φ in deg, φ̇ in deg/s, M in Nm, and the rig's inertia
 I = 0.51 used directly in those units. With it, free vibration reproduces Table 2. Eq. (5) of the
 paper prints displacement (φ₂ − φ₁) where velocity belongs in the rate equation; we use velocity.
 

@@ -5,7 +5,7 @@ n = 1.48 constant (eq. 13). The printed φ̈ term is a unit inertia.
 
 The coefficients of eqs. (7)–(12) are only plotted (Fig. 14); the defaults are exponential fits
 (rise, decay, growth as the paper assigns them; scipy ``curve_fit``, R² 0.97–1.00) to Table 2's
-per-pressure values on 0–0.05 MPa. DESIGN.md "Units": Table 2 does not reproduce Table 1 under any
+per-pressure values on 0–0.05 MPa. docs/units.md: Table 2 does not reproduce Table 1 under any
 reading, so use Table 1 (loop metrics) as reference data and this composition for its structure.
 """
 

@@ -5,7 +5,7 @@ m ẍ + c ẋ + (K_spr/2 + K_p/i²) x + f_f tanh(σ ẋ) = (K_p/i)((d33 − ξ|x
 
 Mapped onto a ``DrivenOscillator`` with drive gain g = K_p d33 / i and three resisting terms
 (attenuation ξ' = K_p ξ / i on |x| u, and the input-driven Bouc–Wen state with κ = K_p / i).
-Units: x and h in µm (DESIGN.md "Units": the identified values are plausible only with h in µm:
+Units: x and h in µm (docs/units.md: the identified values are plausible only with h in µm:
 about 170 µm output at 80 V), u in V, F in N, t in s. Table 1's SI values are converted to N/µm.
 m_eq is not printed; 0.01 kg (a 1.2 kHz first mode, well above the 50 Hz sweeps) is assumed.
 """

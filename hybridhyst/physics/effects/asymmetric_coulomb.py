@@ -26,6 +26,7 @@ class AsymmetricCoulomb(Effect):
     """
 
     name = "asymmetric_coulomb"
+    example_values = {"Fc": 0.5, "dF": 0.2, "v_s": 0.2}
     equation = "F = Fc * tanh(v / v_s) + dF * |tanh(v / v_s)|"
     source = "Olsson et al. 1998 (direction-dependent Coulomb level)"
     special_cases = (("coulomb",),)  # dF = 0

@@ -27,6 +27,8 @@ class Attenuation(Effect):
     """
 
     name = "attenuation"
+    example_values = {"xi": 0.3}
+    needs_drive = True  # F = ξ|x|u: on a damper law without a separate drive it is a cubic-like stiffness
     equation = "F = xi * |x| * u"
     source = "seed 003 eqs. (4)-(9)"
     specs: ClassVar[dict[str, ParameterSpec]] = {

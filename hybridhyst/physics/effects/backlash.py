@@ -38,6 +38,7 @@ class Backlash(Effect):
     """
 
     name = "backlash"
+    example_values = {"r": 0.1}
     state_dim = 1
     equation = "dd/dt = v, d in [-r, r] (projected);  later effects see x - d, v [d sign(v) >= r]"
     source = "Krasnosel'skii & Pokrovskii 1989 (play operator)"

@@ -167,6 +167,23 @@ class Effect(nn.Module):
     # candidate (``discover.candidates.start_candidates``).
     start: ClassVar[dict[str, ParameterSpec]] = {}
 
+    # What the discovery loop reads (discover/candidates.py). Declare these on the class; nothing else about an
+    # effect is special-cased by name.
+    # discovery_candidate: whether the loop offers this effect as a candidate (False for a reparametrisation of
+    # another effect, a network, an effect acting on a control, a complete device model).
+    discovery_candidate: ClassVar[bool] = True
+    # discovery_units: {parameter: unit template} for a parameter whose literal unit is "-" but whose size follows
+    # the data (Bouc–Wen's β, γ act on z ~ x: "1/x"); the candidate's start and bounds are scaled by it.
+    discovery_units: ClassVar[dict[str, str]] = {}
+    # discovery_fixed: {parameter: value} held in the candidate (a form the data can identify).
+    discovery_fixed: ClassVar[dict[str, float]] = {}
+    # needs_drive: the effect reads a drive u separate from the displacement (a DrivenOscillator); the loop does not
+    # offer it to a constitutive law.
+    needs_drive: ClassVar[bool] = False
+    # example_values: {parameter: value} away from neutral, at which tests compare the compiled simulator with the
+    # reference (tests/test_fast.py) and every hook above is exercised; every library effect declares them.
+    example_values: ClassVar[dict[str, float]] = {}
+
     def __init__(self, fixed: tuple[str, ...] | list[str] = (), **values):
         super().__init__()
         unknown = set(values) - set(self.specs) - set(self.start)
@@ -347,6 +364,8 @@ class ControlEffect(Effect):
     them: the control's name is an option (``control``), listed by ``physics.conditions_used`` like a parameter
     function's condition, and ``read`` is the control at this instant (a one-line error where the records do not
     carry it)."""
+
+    discovery_candidate = False  # offered by the loop only where a parameter follows the control
 
     def __init__(self, control: str = "voltage", **values):
         super().__init__(**values)

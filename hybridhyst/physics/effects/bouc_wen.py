@@ -29,6 +29,7 @@ class BoucWenHysteresis(Effect):
     """
 
     name = "bouc_wen"
+    example_values = {"alpha": 0.3, "k": 2.0, "k1": 0.1, "D": 1.2, "A": 1.0, "beta": 0.5, "gamma": 0.3, "n": 1.7}
     state_dim = 1
     equation = "F = a(k x + k1 x^3) + (1-a) kappa z;  D dz/dt = A v - beta|v||z|^(n-1) z - gamma v |z|^n"
     source = "Bouc 1967; Wen 1976; seeds 001 (eqs. 1-2), 002, 004; Noel & Schoukens 2016"
@@ -52,7 +53,7 @@ class BoucWenHysteresis(Effect):
     discovery_units = {"beta": "1/x", "gamma": "1/x"}
     # ... and is added in its identifiable normalised form F = k z, ż = v − β|v||z|^(n−1)z − γ v|z|^n:
     # the elastic share α k x and the cubic k1 x³ are other candidates (linear_stiffness, cubic_stiffness),
-    # and D, A only rescale z against k (DESIGN.md "Units"), so they are held at 1.
+    # and D, A only rescale z against k (docs/units.md), so they are held at 1.
     discovery_fixed = {"alpha": 0.0, "k1": 0.0, "D": 1.0, "A": 1.0}
 
     def __init__(self, driven_by: str = "motion", kappa=None, fixed=(), **values):

@@ -15,11 +15,13 @@ class BoucWenNormalised(Effect):
     (eq. 2 prints |x|^n in the β term; the Bouc–Wen form has |z|^n.) Seed 002 names the |v| term γ and
     the v term β — the reverse of seed 001 — and this effect keeps the paper's names. Units as printed
     in its Table 2: ω [1/s], ξ [F*t/x], α [F/x], β, γ [1/x^n] (z ~ x; printed x^-2), A [-], n [-]; the table's values
-    are not mutually consistent (DESIGN.md "Units"), so treat them as a structure, not a calibration.
+    are not mutually consistent (docs/units.md), so treat them as a structure, not a calibration.
     Shapes: (batch,); state (batch, 1).
     """
 
     name = "bouc_wen_normalised"
+    example_values = {"omega": 1.5, "xi": 0.1, "alpha": 0.3, "A": 1.0, "beta": 0.3, "gamma": 0.5, "n": 1.48}
+    discovery_candidate = False  # bouc_wen is offered in this identifiable form (its discovery_fixed)
     state_dim = 1
     equation = "F = 2 xi w v + a w^2 x + (1-a) w z;  dz/dt = A v - gamma|v||z|^(n-1) z - beta v |z|^n"
     source = "seed 002 (eqs. 5-6)"

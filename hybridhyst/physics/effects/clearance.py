@@ -44,6 +44,7 @@ class Clearance(Effect):
     """
 
     name = "clearance"
+    example_values = {"sigma0": 5.0, "Fc": 1.0, "a": 0.2, "r": 0.05}
     state_dim = 1
     equation = "F = sigma0 (q - clamp(q, -r, r));  dq/dt = v - |v| F / (Fc (1 + a sign v))"
     source = "Dahl 1968; Nordin & Gutman 2002 (dead-zone backlash)"

@@ -26,6 +26,7 @@ class ControlLag(ControlEffect):
     """
 
     name = "control_lag"
+    example_values = {"eta": 190.0}
     state_dim = 1
     equation = "du/dt = -eta (u - c);  later effects see u for c"
     source = "Spencer et al. 1997, eq. 8"

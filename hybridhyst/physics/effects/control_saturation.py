@@ -21,6 +21,7 @@ class ControlSaturation(ControlEffect):
     """
 
     name = "control_saturation"
+    example_values = {"c_max": 3.0}
     equation = "later effects see c_max tanh(c / c_max) for c"
     source = "smooth actuator saturation (Tao & Kokotović 1996); no seed"
     specs: ClassVar[dict[str, ParameterSpec]] = {

@@ -15,6 +15,7 @@ class Coulomb(Effect):
     """
 
     name = "coulomb"
+    example_values = {"Fc": 0.5, "v_s": 0.2}
     equation = "F = Fc * tanh(v / v_s)"
     source = "seeds 000, 001, 003"
     specs = {

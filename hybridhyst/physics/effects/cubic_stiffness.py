@@ -17,6 +17,7 @@ class CubicStiffness(Effect):
     """
 
     name = "cubic_stiffness"
+    example_values = {"k3": 0.7}
     equation = "F = k3 * x^3"
     source = "seeds 000 (k2 phi^3), 001 (k1 phi^3)"
     specs: ClassVar[dict[str, ParameterSpec]] = {

@@ -29,6 +29,7 @@ class Dahl(Effect):
     """
 
     name = "dahl"
+    example_values = {"Fc": 1.0, "sigma0": 5.0}
     state_dim = 1
     equation = "dz/dt = v - sigma0 |v| z / Fc;  F = sigma0 z"
     source = "Dahl 1968"

@@ -22,6 +22,7 @@ class Inertia(Effect):
     """
 
     name = "inertia"
+    example_values = {"m": 0.2}
     equation = "F = m * a"
     source = "seeds 001 (I), 003 (m_eq)"
     specs: ClassVar[dict[str, ParameterSpec]] = {

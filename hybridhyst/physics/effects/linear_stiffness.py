@@ -10,6 +10,7 @@ class LinearStiffness(Effect):
     """Linear spring, F = k · x. Units: k [F/x]. Source: seeds 000 (k φ), 003 (K_spr/2 + K_p/i²)."""
 
     name = "linear_stiffness"
+    example_values = {"k": 2.0}
     equation = "F = k * x"
     source = "seeds 000, 003"
     specs = {

@@ -33,6 +33,7 @@ class LuGre(Effect):
     """
 
     name = "lugre"
+    example_values = {"Fc": 1.0, "Fs": 1.4, "vs": 0.5, "sigma0": 5.0, "sigma1": 0.1, "sigma2": 0.05}
     state_dim = 1
     equation = "g = Fc + (Fs-Fc) exp(-(v/vs)^2);  dz/dt = v - sigma0 |v| z / g;  F = sigma0 z + sigma1 dz/dt + sigma2 v"
     source = "Canudas de Wit et al. 1995"

@@ -30,6 +30,7 @@ class Maxwell(Effect):
     """
 
     name = "maxwell"
+    example_values = {"k_m": 2.0, "tau": 0.1}
     state_dim = 1
     equation = "dz/dt = v - z / tau;  F = k_m z"
     source = "Maxwell 1867; Tschoegl 1989"

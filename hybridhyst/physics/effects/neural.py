@@ -54,6 +54,7 @@ class NeuralEffect(Effect):
     """
 
     name = "neural"
+    discovery_candidate = False  # names no physical effect (the loop measures what is left with its own network)
     state_dim = 0
     equation = "F = s_F N(x/s_x, v/s_v, z, c);  dz/dt = (s_v/s_x) N_z(x/s_x, v/s_v, z, c)"
     source = "Rackauckas et al. 2020 (universal differential equations); Beintema et al. 2023"

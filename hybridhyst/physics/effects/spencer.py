@@ -27,6 +27,9 @@ class SpencerMR(Effect):
     """
 
     name = "spencer_mr"
+    discovery_candidate = False  # a whole device law, not one effect to add
+    example_values = {"alpha": 0.8, "c0": 0.4, "c1": 6.0, "k0": 0.5, "k1": 0.1, "x0": 0.05, "gamma": 1.2, "beta": 1.1,
+                      "A": 1.3, "n": 2.0}
     state_dim = 2
     equation = ("F = alpha z + c0 (v - dy) + k0 (x - y) + k1 (x - x0); dz = -gamma|v-dy| z|z|^(n-1) - beta (v-dy)|z|^n"
                 " + A (v-dy); dy = (alpha z + c0 v + k0 (x - y)) / (c0 + c1)")

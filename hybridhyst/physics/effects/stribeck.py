@@ -26,6 +26,7 @@ class Stribeck(Effect):
     """
 
     name = "stribeck"
+    example_values = {"dFs": 0.4, "vs": 0.5, "v_s": 0.2}
     equation = "F = dFs * exp(-(v/vs)^2) * tanh(v / v_s)"
     source = "Stribeck 1902; Canudas de Wit et al. 1995"
     special_cases = (("coulomb",),)  # vs → ∞: a constant excess level, i.e. Coulomb

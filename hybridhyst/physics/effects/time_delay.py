@@ -23,6 +23,7 @@ class TimeDelay(Effect):
     """
 
     name = "time_delay"
+    example_values = {"tau": 0.013}
     equation = "u_seen(t) = u(t - tau)"
     source = "dead-time element (Ljung 1999); no seed"
     specs: ClassVar[dict[str, ParameterSpec]] = {

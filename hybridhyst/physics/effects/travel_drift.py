@@ -27,6 +27,7 @@ class TravelDrift(Effect):
     """
 
     name = "travel_drift"
+    example_values = {"dF": 0.4, "v_s": 0.2}
     state_dim = 1
     equation = "ds/dt = |v|;  F = dF * s * tanh(v / v_s)"
     source = "hybridhyst: linear drift of the friction level with cumulative travel"

@@ -21,6 +21,7 @@ class Viscous(Effect):
     """
 
     name = "viscous"
+    example_values = {"c": 0.3}
     equation = "F = c * s * v"
     source = "seeds 000-004"
     specs = {
