@@ -1,7 +1,6 @@
-"""Tests of the independent blind-test-bed generators (hybridhyst/testbed/blind.py).
-
-Structure and noise of every case, plus known-solution checks of every operator
-and integrator the generators use.
+"""Tests of the independent blind-test-bed generators (hybridhyst/testbed/blind/): the package's imports, the
+catalogue, and the structure and noise of every case. The known-solution checks of the operators and integrators
+the generators use are in tests/test_blind_operators.py and tests/test_blind_integrators.py.
 """
 
 import ast
@@ -10,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
 from hybridhyst.testbed import blind
 
@@ -40,21 +38,30 @@ def _cat(case, key="y"):
 
 
 def test_blind_imports_only_numpy_scipy_stdlib():
-    src = Path(blind.__file__).read_text()
-    tree = ast.parse(src)
+    """Every module of the blind package imports only numpy, scipy and the standard library, and (relative, one
+    level) the package's own modules; none names the library."""
+    package = Path(blind.__file__).parent
+    own = {p.stem for p in package.glob("*.py")} - {"__init__"}
     allowed = {"numpy", "scipy", "math", "dataclasses", "typing"}
-    seen = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            for a in node.names:
-                seen.add(a.name.split(".")[0])
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, "relative import in blind.py"
-            seen.add((node.module or "").split(".")[0])
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
-            assert node.func.id not in {"__import__", "exec", "eval"}
-    assert seen <= allowed, seen - allowed
-    assert "hybridhyst" not in src.replace("hybridhyst/testbed/blind.py", "")
+    assert own, package
+    for path in sorted(package.glob("*.py")):
+        src = path.read_text()
+        tree = ast.parse(src)
+        seen = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    seen.add(a.name.split(".")[0])
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    assert node.level == 1 and (node.module or "").split(".")[0] in own, (
+                        f"relative import (from {'.' * node.level}{node.module or ''}) in blind/{path.name}")
+                    continue
+                seen.add((node.module or "").split(".")[0])
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+                assert node.func.id not in {"__import__", "exec", "eval"}
+        assert seen <= allowed, (path.name, seen - allowed)
+        assert "hybridhyst" not in src, path.name
 
 
 def test_case_catalogue_coverage():
@@ -291,359 +298,3 @@ def test_oscillators_start_at_rest():
             continue
         for r in c.records:
             assert r["y"][0] == 0.0 and r["x"][0] == 0.0
-
-
-# =============================================================================
-# Play operator
-# =============================================================================
-
-
-def test_play_dead_band_on_ramp():
-    r = 0.5
-    h = 1e-3
-    up = np.arange(0, 5000 + 1) * h  # 0 -> 5
-    down = 5.0 - np.arange(1, 5000 + 1) * h  # -> 0
-    up2 = np.arange(1, 5000 + 1) * h  # -> 5
-    x = np.concatenate([up, down, up2])
-    z = blind.play_operator(x, r, z0=0.0)
-    # first rise: z stays 0 until x = r, then follows x - r
-    np.testing.assert_allclose(z[:5001], np.maximum(up - r, 0.0), atol=1e-12)
-    # down: z holds 4.5 until x = 5 - 2r, then follows x + r
-    np.testing.assert_allclose(z[5001:10001], np.minimum(down + r, 5.0 - r), atol=1e-12)
-    # the input travel during which the output is frozen after the reversal = 2r
-    frozen = np.abs(np.diff(z[5000:10001])) == 0.0
-    width = np.sum(frozen) * h
-    assert width == pytest.approx(2 * r, abs=1.01 * h)
-    np.testing.assert_allclose(z[10001:], np.maximum(up2 - r, 0.0 + r), atol=1e-12)
-    # band invariant
-    assert np.all(np.abs(x - z) <= r + 1e-12)
-
-
-def test_play_zero_width_identity_rate_independence_and_refinement():
-    t = np.linspace(0, 3, 3001)
-    x = np.sin(TWO_PI * t) + 0.3 * np.sin(TWO_PI * 3.7 * t)
-    np.testing.assert_array_equal(blind.play_operator(x, 0.0), x)
-    z = blind.play_operator(x, 0.2)
-    # rate independence: holding the input (repeated samples) changes nothing
-    np.testing.assert_array_equal(blind.play_operator(np.repeat(x, 3), 0.2)[::3], z)
-    # Lipschitz: |dz| <= |dx|
-    assert np.all(np.abs(np.diff(z)) <= np.abs(np.diff(x)) + 1e-12)
-    # refinement invariance for a piecewise linear input (turning points on grid)
-    knots = np.array([0.0, 1.0, -0.5, 0.8, 0.1, 0.4])
-    coarse = np.concatenate([np.linspace(a, b, 11)[:-1] for a, b in zip(knots[:-1], knots[1:])] + [knots[-1:]])
-    fine = np.interp(np.linspace(0, len(coarse) - 1, 7 * (len(coarse) - 1) + 1), np.arange(len(coarse)), coarse)
-    np.testing.assert_allclose(blind.play_operator(fine, 0.15)[::7], blind.play_operator(coarse, 0.15), atol=1e-14)
-
-
-def test_play_velocity_on_sine():
-    A, f, r = 4.0, 1.0, 0.6
-    t, x, v = blind.sine_input(A, f, 2, 2000)
-    z = blind.play_operator(x, r, z0=x[0] + r)
-    vz = blind.play_velocity(x, z, v, r)
-    # after the reversal at x = +A (t = 0.5 s) the element is disengaged until
-    # x has come down by 2r: A cos(w t') = A - 2r
-    i_rev = 1000
-    frozen = vz[i_rev + 1 : 1500] == 0.0
-    t_release = math.acos((A - 2 * r) / A) / TWO_PI  # time after the reversal
-    n_frozen = np.sum(frozen)
-    assert n_frozen * (t[1] - t[0]) == pytest.approx(t_release, abs=2 * (t[1] - t[0]))
-    # engaged portions move with the input
-    eng = vz != 0
-    np.testing.assert_allclose(vz[eng], v[eng])
-    inner = eng & np.roll(eng, 1) & np.roll(eng, -1)
-    inner[[0, -1]] = False
-    np.testing.assert_allclose(np.gradient(z, t)[inner], v[inner], rtol=0, atol=1e-3 * A * TWO_PI)
-    # the element does not move while disengaged
-    assert np.ptp(z[i_rev : i_rev + n_frozen + 1]) == 0.0
-
-
-# =============================================================================
-# Travel, Dahl, Maxwell
-# =============================================================================
-
-
-def test_cumulative_travel_of_sine():
-    for A, cyc in [(1.0, 3), (2.5, 4)]:
-        t, x, v = blind.sine_input(A, 0.7, cyc, 200)
-        s = blind.cumulative_travel(x)
-        assert s[-1] == pytest.approx(4 * A * cyc, rel=1e-12)
-        assert s[100] == pytest.approx(2 * A, rel=1e-12)  # half a cycle
-        assert np.all(np.diff(s) >= 0)
-
-
-def test_dahl_matches_analytic_on_monotone_ramp():
-    Fc, sig = 60.0, 120.0
-    x = np.linspace(-3.0, 2.0, 501)
-    F = blind.dahl_operator(x, Fc, sig, F0=-Fc)
-    expected = Fc + (-Fc - Fc) * np.exp(-sig * (x - x[0]) / Fc)
-    np.testing.assert_allclose(F, expected, atol=1e-10)
-    # going down from the top: F -> -Fc
-    xd = np.linspace(2.0, -3.0, 501)
-    Fd = blind.dahl_operator(xd, Fc, sig, F0=F[-1])
-    np.testing.assert_allclose(Fd, -Fc + (F[-1] + Fc) * np.exp(-sig * (2.0 - xd) / Fc), atol=1e-10)
-
-
-def test_dahl_is_exact_under_refinement_and_bounded():
-    knots = np.array([-4.0, 4.0, 1.0, 2.0, -0.3, 0.2, -4.0])
-    coarse = np.concatenate([np.linspace(a, b, 9)[:-1] for a, b in zip(knots[:-1], knots[1:])] + [knots[-1:]])
-    m = 13
-    fine = np.interp(np.linspace(0, len(coarse) - 1, m * (len(coarse) - 1) + 1), np.arange(len(coarse)), coarse)
-    Fc_ = blind.dahl_operator(coarse, 60.0, 120.0, F0=-60.0)
-    Ff = blind.dahl_operator(fine, 60.0, 120.0, F0=-60.0)
-    np.testing.assert_allclose(Ff[::m], Fc_, atol=1e-10)
-    assert np.all(np.abs(Ff) <= 60.0 + 1e-12)
-
-
-def test_maxwell_ramp_hold_matches_exponential():
-    km, cm = 40.0, 3.0
-    tau = cm / km
-    h = 1e-4
-    x0, tr = 2.0, 0.05
-    n_r = int(round(tr / h))
-    t = np.arange(0, 20000 + 1) * h
-    x = np.where(t < tr, x0 * t / tr, x0)
-    x[n_r] = x0
-    F = blind.maxwell_force(x, h, km, tau)
-    vr = x0 / tr
-    Fr = cm * vr * (1.0 - np.exp(-t / tau))
-    Fh = cm * vr * (1.0 - math.exp(-tr / tau)) * np.exp(-(t - tr) / tau)
-    expected = np.where(t <= tr + 1e-12, Fr, Fh)
-    np.testing.assert_allclose(F, expected, atol=1e-9 * cm * vr)
-    # a fast ramp approaches the step response km x0 exp(-t/tau)
-    tr2 = 1e-4
-    x2 = np.where(t < tr2, x0 * t / tr2, x0)
-    F2 = blind.maxwell_force(x2, h, km, tau)
-    late = t > 0.01
-    np.testing.assert_allclose(F2[late], km * x0 * np.exp(-t[late] / tau), rtol=2e-3)
-
-
-# =============================================================================
-# Linear systems: exact first-order hold
-# =============================================================================
-
-
-def _oscillator_sine_from_rest(t, m, c, k, F0, w):
-    """Closed-form response of m x'' + c x' + k x = F0 sin(w t), x(0)=x'(0)=0."""
-    wn = math.sqrt(k / m)
-    z = c / (2 * math.sqrt(k * m))
-    wd = wn * math.sqrt(1 - z * z)
-    M = np.array([[k - m * w * w, -c * w], [c * w, k - m * w * w]])
-    a, b = np.linalg.solve(M, [F0, 0.0])
-    C1 = -b
-    C2 = (-a * w + z * wn * C1) / wd
-    return a * np.sin(w * t) + b * np.cos(w * t) + np.exp(-z * wn * t) * (C1 * np.cos(wd * t) + C2 * np.sin(wd * t))
-
-
-def test_foh_linear_oscillator_matches_closed_form():
-    p = blind._LIN_OSC
-    A, B, C = blind.linear_oscillator_matrices(p["m"], p["c"], p["k"])
-    for F0, f in [(5.0, 1.5), (8.0, 3.0), (10.0, 6.0)]:
-        t = np.arange(5 * 1600 + 1) / (f * 1600)
-        u = F0 * np.sin(TWO_PI * f * t)
-        x = blind.lti_foh_response(A, B, C, t[1] - t[0], u)
-        ex = _oscillator_sine_from_rest(t, p["m"], p["c"], p["k"], F0, TWO_PI * f)
-        assert np.max(np.abs(x - ex)) < 1e-5 * np.max(np.abs(ex))
-
-
-def test_clean_linear_oscillator_case_matches_closed_form():
-    c = blind.clean_linear_oscillator(noise=False)
-    p = blind._LIN_OSC
-    for r in c.records:
-        if r["name"].startswith("MS"):
-            continue
-        F0, f = r["conditions"]["amplitude"], r["conditions"]["frequency_hz"]
-        ex = 1000.0 * _oscillator_sine_from_rest(r["t"], p["m"], p["c"], p["k"], F0, TWO_PI * f)
-        assert np.max(np.abs(r["y"] - ex)) < 0.01 * c.noise_sd
-
-
-def test_foh_is_exact_for_piecewise_linear_input():
-    # 3-state standard linear solid oscillator against a tight solve_ivp on the
-    # same piecewise-linear input
-    A, B, C = blind.sls_oscillator_matrices(4.0, 5.0, 2000.0, 1500.0, 0.04)
-    h = 0.004
-    t = np.arange(0, 401) * h
-    rng = np.random.default_rng(5)
-    u = np.concatenate([[0.0], rng.normal(0, 20.0, 400)])
-    x = blind.lti_foh_response(A, B, C, h, u)
-
-    def rhs(tt, s):
-        return A @ s + B * np.interp(tt, t, u)
-
-    ref = solve_ivp(rhs, (0, t[-1]), np.zeros(3), method="DOP853", t_eval=t, rtol=1e-12, atol=1e-15, max_step=h / 4)
-    assert np.max(np.abs(x - ref.y[0])) < 1e-8 * np.max(np.abs(ref.y[0]))
-    with pytest.raises(ValueError):
-        blind.lti_foh_response(A, B, C, h, u + 1.0)
-
-
-# =============================================================================
-# Nonlinear integrators: convergence and closed forms
-# =============================================================================
-
-
-def test_stribeck_oscillator_converged():
-    p = blind._STRIB_OSC
-    F0, f = 7.0, 1.5
-    t = np.arange(4 * 100 + 1) / (f * 100)
-    x1 = blind.simulate_stribeck_oscillator(t, F0, f, p)
-    x2 = blind.simulate_stribeck_oscillator(t, F0, f, p, rtol=1e-11, atol=1e-14, max_step=(t[1] - t[0]) / 30)
-    noise_m = blind.stribeck_oscillator().noise_sd / 1000.0
-    assert np.max(np.abs(x1 - x2)) < 1e-3 * noise_m
-    # with no friction it is the linear oscillator
-    q = dict(p, Fc=0.0, Fs=0.0)
-    x0 = blind.simulate_stribeck_oscillator(t, F0, f, q)
-    ex = _oscillator_sine_from_rest(t, q["m"], q["c"], q["k"], F0, TWO_PI * f)
-    assert np.max(np.abs(x0 - ex)) < 1e-6 * np.max(np.abs(ex))
-
-
-def test_endstop_oscillator_converged_and_linear_inside_gap():
-    p = blind._ENDSTOP
-    F0, f = 6.0, 2.5
-    t = np.arange(5 * 60 + 1) / (f * 60)
-    x1 = blind.simulate_endstop_oscillator(t, F0, f, p)
-    x2 = blind.simulate_endstop_oscillator(t, F0, f, p, rtol=1e-12, atol=1e-15, max_step=(t[1] - t[0]) / 30)
-    assert np.max(np.abs(x1)) > p["g"]  # the stops are hit
-    assert np.max(np.abs(x1 - x2)) < 1e-3 * blind.endstop_contact_oscillator().noise_sd / 1000.0
-    q = dict(p, g=10.0)  # stops never reached
-    xl = blind.simulate_endstop_oscillator(t, F0, f, q)
-    ex = _oscillator_sine_from_rest(t, q["m"], q["c"], q["k"], F0, TWO_PI * f)
-    assert np.max(np.abs(xl - ex)) < 1e-7 * np.max(np.abs(ex))
-
-
-def test_bouc_wen_closed_form_on_monotone_half_cycle():
-    # n = 1, z0 = 0, x' > 0 and z >= 0: dz/dx = (1 - z)/xy -> z = 1 - exp(-(x + A)/xy)
-    p = dict(blind._BW, n=1.0)
-    A = 3.0
-    t = np.linspace(0, 0.5, 501)  # x = -A cos(2 pi t): -A -> A
-    z = blind.simulate_bouc_wen(t, [A], [1.0], p, z0=0.0)
-    x = -A * np.cos(TWO_PI * t)
-    np.testing.assert_allclose(z, 1.0 - np.exp(-(x + A) / p["xy"]), atol=1e-8)
-
-
-def test_bouc_wen_bounded_and_converged():
-    t = np.arange(601) / 400.0
-    z1 = blind.simulate_bouc_wen(t, [8.0, 2.0], [1.0, 4.2], blind._BW, z0=-1.0)
-    z2 = blind.simulate_bouc_wen(
-        t, [8.0, 2.0], [1.0, 4.2], blind._BW, z0=-1.0, rtol=1e-12, atol=1e-14, max_step=(t[1] - t[0]) / 15
-    )
-    assert np.all(np.abs(z1) <= 1.0 + 1e-9)
-    # force scale alpha <= 320 N; integration error far below the noise
-    assert 320.0 * np.max(np.abs(z1 - z2)) < 1e-3 * blind.mr_bouc_wen_damper().noise_sd
-
-
-def test_thermal_viscous_closed_form_when_linear():
-    p = dict(blind._THERM, b=0.0)
-    A, f = 20.0, 1.0
-    t, x, v = blind.sine_input(A, f, 5, 40)
-    th = blind.simulate_thermal_viscous(t, A, f, p)
-    w = TWO_PI * f
-    a = p["c0"] * A * A * w * w / (2 * p["C"])
-    tau = p["tau"]
-    Om = 2 * w
-    P = -a * tau / (1 + (Om * tau) ** 2)
-    Q = P * Om * tau
-    ex = a * tau + P * np.cos(Om * t) + Q * np.sin(Om * t) + (-a * tau - P) * np.exp(-t / tau)
-    np.testing.assert_allclose(th, ex, atol=1e-8 * np.max(ex))
-    # nonlinear (b > 0) version converged
-    th1 = blind.simulate_thermal_viscous(t, A, f, blind._THERM)
-    th2 = blind.simulate_thermal_viscous(t, A, f, blind._THERM, rtol=1e-12, atol=1e-14, max_step=(t[1] - t[0]) / 40)
-    assert np.max(np.abs(th1 - th2)) < 1e-8
-    assert th1[-1] < th[-1]  # less heating when damping fades
-
-
-def test_crank_nicolson_thermal_friction_against_solve_ivp():
-    p = blind._ASYMDRIFT
-    A, f = 2.0, 1.0
-    tf, xf, vf = blind.sine_input(A, f, 4, 120, 20)
-    th = blind.thermal_friction_cn(tf, vf, p)
-    w = TWO_PI * f
-
-    def rhs(tt, y):
-        v = A * w * math.sin(w * tt)
-        s = v / math.sqrt(v * v + p["delta"] ** 2)
-        return [
-            ((p["Fbar"] + p["dF"] * s) * math.exp(-p["b"] * y[0]) * s * v + p["c"] * v * v) / p["C"] - y[0] / p["tau"]
-        ]
-
-    t = tf[::20]
-    ref = solve_ivp(
-        rhs, (0, t[-1]), [0.0], method="DOP853", t_eval=t, rtol=1e-11, atol=1e-12, max_step=(t[1] - t[0]) / 10
-    ).y[0]
-    # the force sensitivity to th is about Fdir * b ~ 0.03 kip/K; error << noise
-    assert np.max(np.abs(th[::20] - ref)) < 1e-3
-    assert 0.03 * np.max(np.abs(th[::20] - ref)) < 1e-3 * blind.asymmetric_friction_drift_damper().noise_sd
-    # second-order convergence
-    e = []
-    for ref_n in (5, 10):
-        tfn, _, vfn = blind.sine_input(A, f, 4, 120, ref_n)
-        e.append(np.max(np.abs(blind.thermal_friction_cn(tfn, vfn, p)[::ref_n] - ref)))
-    assert e[1] < e[0] / 3.0
-
-
-def test_duffing_midpoint_linear_limit_and_convergence():
-    p = blind._DUFF
-    F0, f = 4.0, 2.5
-    for k3 in (0.0, p["k3"]):
-        q = dict(p, k3=k3)
-        xs = []
-        for ref in (20, 40, 80):
-            tf = np.arange(4 * 80 * ref + 1) / (f * 80 * ref)
-            um = F0 * np.sin(TWO_PI * f * (tf[:-1] + 0.5 * (tf[1] - tf[0])))
-            xs.append(blind.duffing_midpoint(tf, um, q)[::ref])
-        if k3 == 0.0:
-            t = np.arange(4 * 80 + 1) / (f * 80)
-            ex = _oscillator_sine_from_rest(t, q["m"], q["c"], q["k"], F0, TWO_PI * f)
-            assert np.max(np.abs(xs[0] - ex)) < 1e-3 * np.max(np.abs(ex))
-            assert np.max(np.abs(xs[2] - ex)) < np.max(np.abs(xs[0] - ex)) / 10  # 2nd order
-        else:
-            # the production grid (20x) is within 2 % of the noise sd of the converged answer
-            assert 1000.0 * np.max(np.abs(xs[0] - xs[2])) < 0.02 * blind.clean_duffing_oscillator().noise_sd
-
-
-# =============================================================================
-# Signals and noise
-# =============================================================================
-
-
-def test_sine_and_cos_sum_inputs():
-    t, x, v = blind.sine_input(2.0, 0.5, 3, 100)
-    assert len(t) == 301 and t[-1] == pytest.approx(6.0)
-    assert x[0] == -2.0 and x[-1] == pytest.approx(-2.0) and v[0] == 0.0 and v[50] == 0.0
-    np.testing.assert_allclose(np.gradient(x, t)[1:-1], v[1:-1], atol=2e-3 * np.abs(v).max())
-    t = np.linspace(0, 2, 2001)
-    xs, vs = blind.cos_sum(t, [1.0, 0.5], [1.0, 3.0])
-    assert xs[0] == -1.5 and vs[0] == 0.0
-    np.testing.assert_allclose(np.gradient(xs, t)[1:-1], vs[1:-1], atol=1e-3 * np.abs(vs).max())
-    xm, vm = blind.tapered_multisine(t, [1.0, 0.4], [1.3, 2.9], [0.3, 1.1], 2.0, 0.4)
-    assert xm[0] == 0.0 and xm[-1] == pytest.approx(0.0, abs=1e-12)
-    np.testing.assert_allclose(np.gradient(xm, t)[1:-1], vm[1:-1], atol=1e-3 * np.abs(vm).max())
-
-
-def test_ar1_noise_statistics():
-    rng = np.random.default_rng(1)
-    e = blind.ar1_noise(rng, 200000, 2.0, 0.8)
-    assert np.std(e) == pytest.approx(2.0, rel=0.03)
-    rho = np.corrcoef(e[:-1], e[1:])[0, 1]
-    assert rho == pytest.approx(0.8, abs=0.01)
-    # stationary from the first sample: many short sequences
-    first = np.array([blind.ar1_noise(np.random.default_rng(i), 2, 2.0, 0.8)[0] for i in range(2000)])
-    assert np.std(first) == pytest.approx(2.0, rel=0.05)
-
-
-def test_lowpass_noise_statistics():
-    rng = np.random.default_rng(2)
-    e = blind.lowpass_noise(rng, 200000, 0.5, 2, 0.2)
-    assert np.std(e) == pytest.approx(0.5, rel=0.03)
-    assert np.corrcoef(e[:-1], e[1:])[0, 1] > 0.5  # coloured
-    w = blind.make_noise(np.random.default_rng(3), 100000, 1.5, ("white",))
-    assert np.std(w) == pytest.approx(1.5, rel=0.02)
-    assert abs(np.corrcoef(w[:-1], w[1:])[0, 1]) < 0.02
-
-
-def test_smooth_signs():
-    v = np.linspace(-5, 5, 1001)
-    for fn in (blind.sign_arctan, blind.sign_erf, blind.sign_algebraic):
-        s = fn(v, 0.1)
-        assert np.all(np.diff(s) >= 0) and np.all(np.abs(s) <= 1)
-        np.testing.assert_allclose(s, -s[::-1], atol=1e-15)
-        assert abs(s[-1]) > 0.98
-    assert blind.sign_exact(0.0) == 0.0

@@ -1,55 +1,17 @@
-"""The cases of the independent discovery test bed: data from ``generators`` (no library physics), the
-nominal a user would declare (a library model, the base law without the extra effect, constant
-parameters, round starting values: never the truth), the split and what the loop should name.
-
-Every case is a ``Case``; ``CASES`` lists them, ``CASE_BY_NAME`` finds one. Categories:
-
-* ``single``: one library effect family missing from the nominal (each family at least once);
-* ``pair``: two missing;
-* ``condition``: seed 000's VPPTD law M = c φ̇ + k φ + k₂ φ³ + M_s sgn φ̇ (φ in deg, φ̇ in rad/s, M in Nm)
-  with parameters rising with the underpressure (linearly or exponentially) plus one missing effect (in one
-  case with a level that rises with the underpressure too); the nominal is ``vpptd_algebraic`` with constant
-  parameters; a friction damper whose missing clearance has a level that rises with a coil current; and two
-  cases whose condition varies in time within each record, a control channel (``Record.controls``): an MR damper
-  whose coil voltage (a random staircase) reaches its damping and hysteretic force through a first-order lag
-  (missing: ``control_lag``; the parameters' dependence on the voltage is found as trends), and a friction
-  damper whose level follows an underpressure ramp (missing: the viscous term; the level's dependence on the
-  pressure a trend). Their records carry a categorical condition (``set``) to split on, so that no numeric
-  condition is offered as a trend;
-* ``clean``: the nominal is the truth's structure: nothing may be added;
-* ``out_of_library``: an effect the library does not have (cogging, friction whose level varies with
-  position): nothing may be named, and the loop should flag structure it cannot name.
-
-Aliases (an expected family with more than one acceptable library name), kept to exact special cases:
-
-* Coulomb friction: ``coulomb`` or ``asymmetric_coulomb`` (asymmetric Coulomb with dF = 0 is Coulomb);
-* Dahl friction: ``dahl`` or ``lugre`` (LuGre with Fs = Fc and σ1 = σ2 = 0 is Dahl).
-
-A key parameter missing under its own name is looked up under the alias with the same parameter name
-(``asymmetric_coulomb.Fc`` is the mean sliding level, as ``coulomb.Fc``; ``lugre.Fc`` the sliding level, as
-``dahl.Fc``).
-"""
+"""The first bed's case list: every case with its truth, data, nominal, split and what the loop should name
+(``CASES``, ``CASE_BY_NAME``) and the two small cases of quick runs (``FAST_CASES``)."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
-import numpy as np
-
-from . import generators as g
-from .laws import (
+from ..laws import (
     VPPTD_SPLIT,
     bw_law,
     clearance_law,
-    control_friction_law,
     dahl_law,
     drift_law,
     lugre_law,
-    maxwell_law,
-    mr_lag_law,
-    on_fine,
     osc_law,
     p_const,
     p_exp,
@@ -59,152 +21,37 @@ from .laws import (
     static_law,
     vpptd_records,
 )
-
-__all__ = ["CASES", "CASE_BY_NAME", "CATEGORIES", "FAST_CASES", "Case", "ALIASES", "maxwell_records"]
-
-CATEGORIES = ("single", "pair", "condition", "clean", "out_of_library")
-COULOMB = frozenset({"coulomb", "asymmetric_coulomb"})
-DAHL = frozenset({"dahl", "lugre"})
-ALIASES = {"coulomb": COULOMB, "dahl": DAHL}
-
-DAMPER_UNITS = {"x": "in", "F": "kip", "t": "s"}
-MM_UNITS = {"x": "mm", "F": "N", "t": "s"}
-OSC_UNITS = {"x": "in", "F": "kip", "u": "kip", "t": "s"}
-
-
-@dataclass(frozen=True)
-class Case:
-    """One test-bed case.
-
-    name, category : identification and one of ``CATEGORIES``.
-    expected : one set per missing effect family, each of the acceptable library names.
-    keys : (coordinate ``"<effect>.<param>"`` as discover names it, true value in the library's
-        parametrisation, relative tolerance).
-    noise : the noise standard deviation [response units] (the marginal sd for AR(1) noise).
-    make_records : () -> RecordSet (the data, from ``generators``); make_nominal : () -> nominal model.
-    split : ``{"held_out": query, "val": query or None}`` as ``RecordSet.split``.
-    description : the truth in words; samples_per_cycle and noise_kind for the table.
-    """
-
-    name: str
-    category: str
-    expected: tuple[frozenset[str], ...]
-    keys: tuple[tuple[str, float, float], ...]
-    noise: float
-    make_records: Callable[[], object] = field(repr=False)
-    make_nominal: Callable[[], object] = field(repr=False)
-    split: dict = field(default_factory=dict)
-    description: str = ""
-    samples_per_cycle: str = ""
-    noise_kind: str = "white"
-    trends_ok: tuple[str, ...] = ()  # conditions a clean control's base-law parameters follow: their trend steps
-    # ("trends~<condition>") are the truth, not additions
-
-    def records(self):
-        return self.make_records()
-
-    def nominal(self):
-        return self.make_nominal()
-
-
-# -- record assembly -----------------------------------------------------------------------------------------
-
-
-def _noise(n: int, sd: float, phi: float | None, rng) -> np.ndarray:
-    return g.white_noise(n, sd, rng) if phi is None else g.ar1_noise(n, sd, phi, rng)
-
-
-def _records(name: str, tests: Sequence[tuple[str, g.Sines, dict, np.ndarray]], law, noise: float,
-             phi: float | None, seed: int, units: dict):
-    """RecordSet of ``tests`` = (record name, signal, conditions, sample times); y = law(t, signal) + noise."""
-    from ..data.records import Record, RecordSet
-
-    rng = np.random.default_rng(seed)
-    out = []
-    for rname, sig, cond, t in tests:
-        y = law(t, sig)
-        out.append(Record(name=rname, t=t, x=sig.x(t), y=y + _noise(len(t), noise, phi, rng), conditions=cond,
-                          units=units))
-    return RecordSet(out, name)
-
-
-def _sine_tests(tests: Sequence[tuple[float, float]], spc: int, cycles: float, amplitude_key: str = "amplitude_in",
-                phase: float = -math.pi / 2, prefix: str = "sine"):
-    """(amplitude, frequency) sine tests sampled at ``spc`` samples per cycle for ``cycles`` cycles. The default
-    phase starts each test from rest at −A (x = −A cos 2πft), as a displacement-controlled rig does; a whole
-    number of cycles also ends it at rest."""
-    out = []
-    for a, f in tests:
-        t = np.arange(int(round(cycles * spc)) + 1) / (f * spc)
-        out.append((f"{prefix}_{a:g}_{f:g}Hz", g.sine(a, f, phase=phase), {amplitude_key: a, "frequency_hz": f}, t))
-    return out
-
-
-def _damper(effects: dict, name: str = "nominal", units: dict = DAMPER_UNITS):
-    from ..physics.build import build_model
-
-    return build_model("constitutive", effects, units=units, name=name).double()
-
-
-def _oscillator(effects: dict, mass: float, name: str = "oscillator"):
-    from ..physics.build import build_model
-
-    return build_model("oscillator", effects, units=OSC_UNITS, name=name, mass=mass, fixed=["drive_gain"]).double()
-
-
-def _spring(k):
-    return {"effect": "linear_stiffness", "k": k}
-
-
-def _visc(c):
-    return {"effect": "viscous", "c": c}
-
-
-def _coul(Fc, v_s=0.05):
-    return {"effect": "coulomb", "Fc": Fc, "v_s": v_s, "fixed": ["v_s"]}
-
-
-# standard damper test matrix [in, Hz]: 1.5 in held out (extrapolation in amplitude), 0.75 in validates
-STD = [(0.5, 1.0), (1.0, 1.0), (1.0, 2.0), (0.75, 1.5), (1.5, 1.0), (1.5, 2.0)]
-STD_SPLIT = {"held_out": {"amplitude_in": [1.5]}, "val": {"amplitude_in": [0.75]}}
-# low-speed matrix for velocity-weakening friction (Stribeck)
-SLOW = [(0.5, 0.5), (1.0, 0.5), (0.5, 1.0), (1.0, 1.0), (0.75, 0.75), (1.5, 0.5), (1.5, 1.0)]
-# smaller strokes for the presliding (Dahl, LuGre, Bouc–Wen) cases
-SMALL = [(0.4, 1.0), (0.8, 1.0), (0.8, 2.0), (0.6, 1.5), (1.2, 1.0), (1.2, 2.0)]
-SMALL_SPLIT = {"held_out": {"amplitude_in": [1.2]}, "val": {"amplitude_in": [0.6]}}
-# oscillator drive matrix [kip, Hz]; natural frequency 3.2 Hz
-OSC = [(0.5, 1.0), (1.0, 1.0), (1.0, 2.0), (0.75, 1.5), (1.5, 1.0), (1.5, 2.0)]
-OSC_SPLIT = {"held_out": {"amplitude_kip": [1.5]}, "val": {"amplitude_kip": [0.75]}}
-# rate-dependence matrix (Maxwell, delay): four frequencies
-FREQS = [(0.5, 0.5), (1.0, 0.5), (0.5, 2.0), (1.0, 1.0), (0.75, 4.0), (1.5, 1.0), (1.5, 3.0)]
-FREQ_SPLIT = {"held_out": {"amplitude_in": [1.5]}, "val": {"amplitude_in": [0.75]}}
-
-
-def _sine_records(name, tests, law, *, spc, cycles, noise, phi=None, seed=0, refine=None):
-    law = on_fine(law, refine) if refine else law
-    return _records(name, _sine_tests(tests, spc, cycles), law, noise, phi, seed, {"x": "in", "y": "kip"})
-
-
-def _osc_records(name, tests, law, *, spc, cycles, noise, phi=None, seed=0):
-    """Oscillators are driven by a force u = A sin 2πft from rest (x = ẋ = 0)."""
-    return _records(name, _sine_tests(tests, spc, cycles, amplitude_key="amplitude_kip", phase=0.0, prefix="drive"),
-                    law, noise, phi, seed, {"x": "kip", "y": "in"})
-
-
-def maxwell_records(noise: float = 0.03, phi: float | None = 0.5, seed: int = 52):
-    """The ``maxwell`` case's records (1.5x + 0.1v + a Maxwell element k_m 2, c_m 0.2, at FREQS); other noise
-    levels and seeds for ``scripts/testbed_maxwell_variance.py``."""
-    return _sine_records("maxwell", FREQS, maxwell_law(1.5, 0.1, km=2.0, cm=0.2), spc=100, cycles=2, noise=noise,
-                         phi=phi, seed=seed, refine=10)
-
-
-def _vpptd_nominal():
-    from ..physics.compositions import vpptd_algebraic
-
-    return vpptd_algebraic(c=7.5, k=1.0, k2=0.005, Ms=12.0).double()
-
-
-# -- the case list --------------------------------------------------------------------------------------------------
+from .assembly import (
+    FREQ_SPLIT,
+    FREQS,
+    OSC,
+    OSC_SPLIT,
+    SLOW,
+    SMALL,
+    SMALL_SPLIT,
+    STD,
+    STD_SPLIT,
+    _coul,
+    _damper,
+    _osc_records,
+    _oscillator,
+    _sine_records,
+    _spring,
+    _visc,
+    _vpptd_nominal,
+    maxwell_records,
+)
+from .case import COULOMB, DAHL, MM_UNITS, Case
+from .special_records import (
+    CONTROL_SPLIT,
+    MR_ETA,
+    MR_NOISE,
+    RAMP_NOISE,
+    _clearance_current_records,
+    _inertia_records,
+    _mr_voltage_records,
+    _pressure_ramp_records,
+)
 
 
 def _case(name, category, expected, keys, noise, records, nominal, split, description, spc, noise_kind="white"):
@@ -441,98 +288,6 @@ def _build_cases() -> list[Case]:
               "2x + 0.3v + 0.4 (1 + 0.6 cos(2πx / 0.8 in)) arctan sign: a friction level varying along the stroke; "
               "nominal spring + viscous + Coulomb", "200"))
     return cases
-
-
-def _clearance_current_records(seed: int = 35):
-    """±1 in at 0.5 Hz from x = 0 upwards, 200 samples per cycle, 3 cycles, at seven coil currents I [A]:
-    F = 0.05 v + 0.3 sign(v) + a Dahl element σ0 30 kip/in behind a clearance r 0.08 in, its level 1 + 1.5 I kip
-    both ways, the gap closed on the negative side at the start (q0 = −r: the rig left it there); exact per step
-    on a 20× finer path; 0.05 kip white noise (the user trial's generator, an LSODA integration, rebuilt with the
-    bed's exact operator)."""
-    from ..data.records import Record, RecordSet
-
-    rng = np.random.default_rng(seed)
-    out = []
-    for current in (0.0, 0.3, 0.6, 0.9, 1.2, 1.5, 2.0):
-        level = 1.0 + 1.5 * current
-        gap = clearance_law(0.0, 0.05, r=0.08, sigma0=30.0, Fc_pos=level, Fc_neg=level, q0=-0.08)
-        law = on_fine(lambda tf, sig, gap=gap: gap(tf, sig) + 0.3 * g.sgn(sig.v(tf), "exact"), 20)
-        t = np.arange(601) / 100.0
-        sig = g.sine(1.0, 0.5)
-        out.append(Record(name=f"I{current:.1f}A", t=t, x=sig.x(t), y=law(t, sig) + g.white_noise(len(t), 0.05, rng),
-                          conditions={"current_a": current}, units={"x": "in", "y": "kip"}))
-    return RecordSet(out, "clearance~current+start")
-
-
-# the control-channel cases: every record a test of its own, a categorical label to split on
-CONTROL_SPLIT = {"held_out": {"set": ["held_out"]}, "val": {"set": ["val"]}}
-CONTROL_SETS = ("fit", "fit", "fit", "fit", "val", "held_out")
-MR_ETA, MR_NOISE = 50.0, 2.0  # 1/s; N (about 1 % of the force's standard deviation, 150–215 N)
-RAMP_NOISE = 0.5  # N
-
-
-def _mr_voltage_records(seed: int = 61):
-    """Six 4 s tests at 250 Hz, each a band-limited random motion (8 sines at random frequencies in 0.5–3 Hz,
-    random phases, faded in from rest over 0.25 s, peak 8 mm) under a random coil-voltage staircase (0–2 V, levels
-    held 0.3–0.8 s, 5 ms slew): F = (c_a + c_b u) ẋ + (α_a + α_b u) z + k x, u̇ = −η (u − v) (``laws.mr_lag_law``,
-    computed on a 20× finer grid; Bouc–Wen exact in displacement, the lag by the exact exponential integrator);
-    AR(1) noise (φ 0.5). The voltage is the record's control channel ``voltage``; ``set`` labels the split."""
-    from ..data.records import Record, RecordSet
-
-    rng = np.random.default_rng(seed)
-    duration, rate = 4.0, 250
-    t = np.arange(int(duration * rate) + 1) / rate
-    out = []
-    for i, label in enumerate(CONTROL_SETS):
-        sig = g.random_motion(8.0, 0.5, 3.0, 8, seed=seed * 100 + i, duration=duration)
-        volts = g.staircase(duration, 0.0, 2.0, seed=seed * 100 + 50 + i)
-        law = on_fine(mr_lag_law(volts, c_a=1.0, c_b=1.5, alpha_a=20.0, alpha_b=60.0, k=2.0, beta=0.4, gamma=0.3,
-                                 eta=MR_ETA), 20)
-        y = law(t, sig) + g.ar1_noise(len(t), MR_NOISE, 0.5, rng)
-        out.append(Record(name=f"mr{i + 1}_{label}", t=t, x=sig.x(t), y=y, conditions={"set": label},
-                          units={"x": "mm", "y": "N", "voltage": "V"}, controls={"voltage": volts(t)}))
-    return RecordSet(out, "mr_damper~voltage+lag")
-
-
-# (amplitude mm, frequency Hz, pressure at the start and at the end MPa) of the pressure-ramp tests
-RAMP_TESTS = [(5.0, 1.0, 0.02, 0.09), (5.0, 2.0, 0.09, 0.02), (8.0, 1.25, 0.03, 0.07), (3.0, 2.5, 0.06, 0.09),
-              (6.0, 1.0, 0.05, 0.02), (6.0, 2.0, 0.02, 0.08)]
-
-
-def _pressure_ramp_records(seed: int = 62):
-    """Six 4 s tests at 250 Hz (``RAMP_TESTS``; a whole number of cycles, x = −A cos 2πft from rest), the
-    underpressure held 0.5 s at its start value, ramped linearly to its end value and held for the last 0.5 s:
-    F = 4 x + 0.6 ẋ + (10 + 400 p(t)) sgn(ẋ) (exact sign) N; white noise. The pressure is the control channel
-    ``pressure_mpa``; ``set`` labels the split."""
-    from ..data.records import Record, RecordSet
-
-    rng = np.random.default_rng(seed)
-    duration, rate = 4.0, 250
-    t = np.arange(int(duration * rate) + 1) / rate
-    out = []
-    for (a, f, p0, p1), label in zip(RAMP_TESTS, CONTROL_SETS, strict=True):
-        sig = g.sine(a, f, phase=-math.pi / 2)
-        p = g.ramp(duration, p0, p1, lead=0.5)
-        law = control_friction_law(p, k=4.0, c=0.6, level=lambda q: 10.0 + 400.0 * q)
-        y = law(t, sig) + g.white_noise(len(t), RAMP_NOISE, rng)
-        out.append(Record(name=f"A{a:g}_{f:g}Hz_p{p0:g}-{p1:g}_{label}", t=t, x=sig.x(t), y=y,
-                          conditions={"set": label}, units={"x": "mm", "y": "N", "pressure_mpa": "MPa"},
-                          controls={"pressure_mpa": p(t)}))
-    return RecordSet(out, "friction~pressure_ramp+viscous")
-
-
-def _inertia_records():
-    """Multisines (6 lines, 0.5–3 Hz, one 2 s period at 100 Hz, faded in over 0.25 s) at three rms levels ×
-    two phase realisations: F = 2x + 0.3v + 0.006 ẍ."""
-    law = static_law(k=2.0, c=0.3, m=0.006)
-    tests = []
-    t = np.arange(201) / 100.0
-    lines = [0.5 * i for i in range(1, 7)]
-    for rms in (0.3, 0.45, 0.6):
-        for j, tag in enumerate("ab"):
-            sig = g.multisine(rms, lines, seed=100 + j, fade=0.25)
-            tests.append((f"ms_{rms:g}_{tag}", sig, {"rms_in": rms, "phases": tag}, t))
-    return _records("inertia", tests, law, 0.03, None, 11, {"x": "in", "y": "kip"})
 
 
 CASES: list[Case] = _build_cases()
