@@ -1,6 +1,6 @@
 """hybridhyst: hybrid physics–neural modelling of hysteresis in smart dampers and actuators.
 
-The public surface (STYLE rule 1): data records and readers, the nominal-model structures and
+The public surface: data records and readers, the nominal-model structures and
 builder, and the one simulator. Everything else is reached through its subpackage.
 """
 

@@ -7,14 +7,19 @@ into ``cli`` for it.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import difflib
 import os
 import random
+import types
+import typing
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 import torch
 
-__all__ = ["CONF_DIR", "intra_op_threads", "torch_settings"]
+__all__ = ["CONF_DIR", "from_mapping", "intra_op_threads", "torch_settings"]
 
 # The Hydra config tree is the repository's top-level ``conf/`` (install with ``pip install -e .`` so that
 # it sits next to the package); HYBRIDHYST_CONF points elsewhere.
@@ -58,3 +63,69 @@ def intra_op_threads(n: int | None):
         yield
     finally:
         torch.set_num_threads(old)
+
+
+def _cast(value, hint, key: str):
+    """``value`` as the type ``hint`` names: int, float, bool, str, a dataclass (from a mapping), unions of them
+    (the first that takes the value), containers as they are."""
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        args = typing.get_args(hint)
+        if value is None:
+            if type(None) in args:
+                return None
+            raise ValueError(f"{key} must not be null")
+        errors = []
+        for arg in (a for a in args if a is not type(None)):
+            try:
+                return _cast(value, arg, key)
+            except ValueError as e:
+                errors.append(str(e))
+        raise ValueError(" or ".join(errors))
+    if dataclasses.is_dataclass(hint) and isinstance(hint, type):
+        if isinstance(value, hint):
+            return value
+        if not isinstance(value, Mapping):
+            raise ValueError(f"{key} must be a mapping of {sorted(f.name for f in dataclasses.fields(hint))}")
+        return from_mapping(hint, value, key)
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{key} must be true or false, got {value!r}")
+        return value
+    if hint in (int, float):
+        whole = hint is int
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (whole and float(value) != int(value)):
+            raise ValueError(f"{key} must be {'a whole number' if whole else 'a number'}, got {value!r}")
+        return hint(value)
+    if hint is str:
+        if not isinstance(value, str):
+            raise ValueError(f"{key} must be a string, got {value!r}")
+        return value
+    return value
+
+
+def from_mapping(cls, mapping: Mapping | None, where: str, **given):
+    """An instance of the dataclass ``cls`` from a config block ``mapping`` (plain or OmegaConf) with ``given``
+    laid over it: the one typed schema every settings object is read through. A key ``cls`` does not have is a
+    one-line error naming ``where.key`` and the closest field; a value of the wrong type names the key and the type
+    it needs. Missing keys take the field's default."""
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    hints = typing.get_type_hints(cls)
+    values = dict(mapping or {})
+    values.update(given)
+    out = {}
+    for key, value in values.items():
+        if key not in fields:
+            close = difflib.get_close_matches(str(key), list(fields), n=1)
+            hint = f"did you mean {where}.{close[0]}? " if close else ""
+            raise ValueError(f"unknown config key {where}.{key}: {hint}{where} takes {sorted(fields)}")
+        out[key] = _cast(_plain(value), hints[key], f"{where}.{key}")
+    return cls(**out)
+
+
+def _plain(value):
+    """OmegaConf containers as plain Python (without importing OmegaConf here)."""
+    if hasattr(value, "_metadata") and hasattr(value, "_get_node"):
+        from omegaconf import OmegaConf
+
+        return OmegaConf.to_container(value, resolve=True)
+    return value

@@ -162,13 +162,13 @@ def constant_bounds(bounds=BOUNDS) -> dict:
 TUNED = {"pop": 16, "generations": 30, "restarts": 4, "search_decimate": 2}
 
 
-def run_identify(model, records, bounds: dict, attempts: int, base_seed: int = 0, method: str = "de", **kw) -> dict:
+def run_identify(model, records, bounds: dict, attempts: int, base_seed: int = 0, search: str = "de", **kw) -> dict:
     """``hybridhyst.identify`` (DE or CMA-ES + batched Levenberg–Marquardt), rerun with new seeds until the floor."""
     from hybridhyst.identify import identify
 
     start, tries, res = time.perf_counter(), [], None
     for seed in range(base_seed, base_seed + attempts):
-        new = identify(model, records, method=method, bounds=bounds, noise_sd=NOISE_SD, target=FLOOR**2, seed=seed,
+        new = identify(model, records, search=search, bounds=bounds, noise_sd=NOISE_SD, target=FLOOR**2, seed=seed,
                        fisher=False, progress=False, **kw)
         tries.append({"seed": seed, "rmse": new.rmse, "wall_s": new.wall_s, "evaluations": new.evaluations})
         res = new if res is None or new.rmse < res.rmse else res
@@ -177,7 +177,7 @@ def run_identify(model, records, bounds: dict, attempts: int, base_seed: int = 0
     return {"wall_s": time.perf_counter() - start, "rmse": res.rmse, "reached_floor": res.rmse <= FLOOR,
             "attempts": tries, "per_record": res.per_record, "x": res.x,
             "evaluations": sum(t["evaluations"] for t in tries),
-            "settings": f"hybridhyst.identify(method='{method}', refine='lm', "
+            "settings": f"hybridhyst.identify(search='{search}', refine='lm', "
                         + "".join(f"{k}={v}, " for k, v in kw.items())
                         + f"target=(1.02*0.2)^2), up to {attempts} seeds from {base_seed} until the floor"}
 
@@ -296,7 +296,7 @@ def load_handwritten(rev: str):
 
 @contextmanager
 def search_in_identify(method: str, search):
-    """``identify(method=method)`` with ``search`` as its global search (restored after)."""
+    """``identify(search=method)`` with ``search`` as its global search (restored after)."""
     ident = importlib.import_module("hybridhyst.identify.identify")
     name = {"de": "differential_evolution", "cma": "cma_es"}[method]
     saved = getattr(ident, name)
@@ -383,7 +383,7 @@ def bench_compare(quick: bool, rev: str, scenarios) -> dict:
                 for name, search in impls:
                     with search_in_identify(method, search):
                         idents[name].append(run_identify(constant_model(bounds), recs, constant_bounds(bounds),
-                                                         attempts=5, base_seed=10 * i, method=method, **TUNED))
+                                                         attempts=5, base_seed=10 * i, search=method, **TUNED))
             for name, _ in impls:
                 row = summarize(method, scenario, name, runs[name], idents[name])
                 out["rows"].append(row)

@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))  # bench_simulate
 COMMON = ["experiment=boucwen_baselines", "datamodule.window=256", "datamodule.warmup=64", "datamodule.batch_size=64",
-          "nominal_init.method=none", "logger=none", "progress=false", "trainer.check_val_every_n_epoch=1000",
+          "nominal_init.start=none", "logger=none", "progress=false", "trainer.check_val_every_n_epoch=1000",
           "trainer.limit_val_batches=0"]
 MODULES = {
     "LSTM (2×64)": ["baseline=lstm"],

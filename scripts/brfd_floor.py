@@ -65,8 +65,7 @@ def scored(model, records, substeps: int) -> dict:
     8 Hz grid of the 0.25 Hz sine tests."""
     from hybridhyst.simulate import simulate_resolved
 
-    out, sub, _ = simulate_resolved(model, list(records), substeps=substeps, method=bt.SIM["method"],
-                                    backend=bt.SIM["backend"])
+    out, sub, _ = simulate_resolved(model, list(records), settings=bt.SIM.at(substeps))
     return {"substeps": sub, **bt.score(model, records, sub, out)}
 
 

@@ -34,9 +34,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from hybridhyst.simulate import SimulationSettings
+
 ROOT = Path(__file__).resolve().parents[1]
 TENSIONS = (30, 36)
-SIM = {"backend": "fast", "method": "rk4", "substeps": 1}
+SIM = SimulationSettings(backend="fast", method="rk4", substeps=1)
 _TERM = re.compile(r"([+-][0-9.eE+-]+?)·(\w+)\^(\d+)")
 
 
@@ -107,7 +109,7 @@ def score(model, records, substeps: int, outputs=None) -> dict:
     out = outputs
     if out is None:
         with torch.no_grad():
-            out = simulate(model, recs, method=SIM["method"], substeps=substeps, backend=SIM["backend"])
+            out = simulate(model, recs, settings=SIM.at(substeps))
     preds = [{"condition": r.name, "y": np.asarray(r.y), "y_pred": o[:, 0].numpy(), "warmup": r.warmup}
              for r, o in zip(recs, out)]
     m = split_metrics(preds)
@@ -126,9 +128,9 @@ def fit(model, train):
     from hybridhyst.discover.fitting import polish
     from hybridhyst.identify import identify
 
-    local = polish(copy.deepcopy(model), train, dict(SIM), 25, 10.0)
-    identify(model, train, method="cma", pop=24, generations=30, restarts=4, fisher=False, progress=False)
-    searched = polish(model, train, dict(SIM), 25, 10.0)
+    local = polish(copy.deepcopy(model), train, SIM, 25, 10.0)
+    identify(model, train, search="cma", pop=24, generations=30, restarts=4, fisher=False, progress=False)
+    searched = polish(model, train, SIM, 25, 10.0)
     return local if local.sse < searched.sse else searched
 
 

@@ -1,11 +1,12 @@
-"""Run the app commands of the top-level README, keep what they measured in ``experiments/apps/``, and regenerate
-the README blocks that quote it.
+"""Run the app commands of the user guides (docs/), keep what they measured in ``experiments/apps/``, and regenerate
+the blocks that quote it.
 
 Every number the README states for ``hybridhyst-fit``, ``-identify``, ``-train``, ``-simulate`` and the own-data
 example comes from a JSON file this script writes (``experiments/apps/<run>.json``: the command, its wall time,
 the machine's load, the terminal summary and the run's ``summary.json`` / ``metrics.json`` / ``discovery.json``
-without the bulky parts) and is written into README.md, experiments/apps/README.md and the index
-experiments/README.md between ``<!-- apps:<block>:start -->`` and ``<!-- apps:<block>:end -->``.
+without the bulky parts) and is written into the guides (docs/fit.md, identify.md, train.md, simulate.md,
+own-data.md), experiments/apps/README.md and the index experiments/README.md between
+``<!-- apps:<block>:start -->`` and ``<!-- apps:<block>:end -->``.
 ``tests/test_readme_numbers.py`` checks that the blocks are what the committed JSON renders to, and that the rest
 of those sections quotes no other number.
 
@@ -37,6 +38,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+OWN_DATA_DOC = DOCS / "own-data.md"  # the own-data commands: the first bash block of its "Your own measurements"
 FOLDER = ROOT / "experiments" / "apps"
 FOLDER_README = FOLDER / "README.md"
 MAKE_EXAMPLE = ROOT / "examples" / "own_data" / "make_example.py"
@@ -67,7 +70,8 @@ SPLIT = ("split.select", "split.held_out")
 SECTION_RUNS = (
     Run("fit", "hybridhyst-fit", "summary.json", FIT_KEEP, (*SPLIT, "fit.steps", "fit.lbfgs_steps"),
         files=("report.md", "loop.png")),
-    Run("fit_reference", "hybridhyst-fit fit.backend=reference", "summary.json", FIT_KEEP, ("fit.backend",)),
+    Run("fit_reference", "hybridhyst-fit simulation.backend=reference", "summary.json", FIT_KEEP,
+        ("simulation.backend",)),
     Run("fit_every_sample", "hybridhyst-fit evaluate.samples_per_cycle=null evaluate.downsample=1", "summary.json",
         FIT_KEEP, ("evaluate.samples_per_cycle", "evaluate.downsample")),
     Run("identify", "hybridhyst-identify", "summary.json", IDENTIFY_KEEP, ("split.select",)),
@@ -76,7 +80,7 @@ SECTION_RUNS = (
         "+conditions.pressure_mpa=0.05 input.duration_s=20 input.dt=0.001", "summary.json",
         ("model", "input", "outputs", "records", "wall_s"), ("conditions",)),
 )
-# the own-data commands, in the order of README's "Your own measurements" code block
+# the own-data commands, in the order of docs/own-data.md's code block
 OWN_NAMES = ("own_identify", "own_fit", "own_discover", "own_train", "own_train_linear")
 OWN_OUTPUT = {"identify": ("summary.json", IDENTIFY_KEEP), "fit": ("summary.json", FIT_KEEP),
               "discover": ("discovery.json", DISCOVER_KEEP), "train": ("metrics.json", TRAIN_KEEP)}
@@ -93,13 +97,14 @@ def readme_section(text: str, title: str) -> str:
 
 
 def own_data_runs(text: str | None = None) -> tuple[Run, ...]:
-    """The commands of README's "Your own measurements" code block, named ``OWN_NAMES`` in order."""
-    section = readme_section(text if text is not None else README.read_text(encoding="utf-8"), "Your own measurements")
+    """The commands of docs/own-data.md's first code block ("Your own measurements"), named ``OWN_NAMES`` in
+    order."""
+    section = text if text is not None else OWN_DATA_DOC.read_text(encoding="utf-8")
     block = section.split("```bash\n", 1)[1].split("```", 1)[0]
     commands = [" ".join(c.split()) for c in block.replace("\\\n", " ").splitlines()
                 if c.strip().startswith("hybridhyst-")]
     if len(commands) != len(OWN_NAMES):
-        raise ValueError(f"README's own-data block has {len(commands)} commands, expected {len(OWN_NAMES)}")
+        raise ValueError(f"docs/own-data.md's command block has {len(commands)} commands, expected {len(OWN_NAMES)}")
     runs = []
     for name, command in zip(OWN_NAMES, commands):
         app = command.split()[0].removeprefix("hybridhyst-")
@@ -276,8 +281,8 @@ def block_fit() -> str:
     refs = s["reference"]["held_out_rmse"]
     return wrap(
         f"{measured_note(['fit', 'fit_reference', 'fit_every_sample'])} `hybridhyst-fit` takes {_wall(fit)} s with "
-        f"the default compiled simulator (`fit.backend=fast`; {_wall(ref)} s with `hybridhyst-fit "
-        f"fit.backend=reference`, {same}) and ends at held-out RMSE {s['rmse']['held_out']:.3f} {u}, train "
+        f"the default compiled simulator (`simulation.backend=fast`; {_wall(ref)} s with `hybridhyst-fit "
+        f"simulation.backend=reference`, {same}) and ends at held-out RMSE {s['rmse']['held_out']:.3f} {u}, train "
         f"{s['rmse']['train']:.3f} {u}. SOURCE.md's reference numbers for the same protocol are "
         f"{refs['Coulomb + viscous']} {u} for Coulomb + viscous and {refs['LuGre']} {u} for LuGre (`report.md` "
         f"lists them all). The fitted Dahl state saturates at Fc = {g(_param(s, 'dahl', 'Fc'))} {u} with "
@@ -493,12 +498,26 @@ def block_index() -> str:
                       f"{total:.0f} s ({len(all_runs())} runs) |"])
 
 
-README_BLOCKS = {"fit": block_fit, "identify": block_identify, "train": block_train, "simulate": block_simulate,
-                 "own_data": block_own_data}
+def in_docs(render):
+    """``render`` for a page in docs/: its links to the repository's folders made relative to docs/."""
+    def relinked() -> str:
+        return render().replace("](experiments/", "](../experiments/")
+
+    relinked.__name__ = render.__name__
+    return relinked
+
+
+# the guide page that holds each block (docs/), and the blocks of the experiments' READMEs
+DOC_BLOCKS = {DOCS / "fit.md": {"fit": in_docs(block_fit)},
+              DOCS / "identify.md": {"identify": in_docs(block_identify)},
+              DOCS / "train.md": {"train": in_docs(block_train)},
+              DOCS / "simulate.md": {"simulate": in_docs(block_simulate)},
+              OWN_DATA_DOC: {"own_data": in_docs(block_own_data)}}
+README_BLOCKS = {name: fn for blocks in DOC_BLOCKS.values() for name, fn in blocks.items()}  # every guide block
 FOLDER_BLOCKS = {"table": block_table}
 INDEX = ROOT / "experiments" / "README.md"
 INDEX_BLOCKS = {"index": block_index}
-BLOCK_FILES = ((README, README_BLOCKS), (FOLDER_README, FOLDER_BLOCKS), (INDEX, INDEX_BLOCKS))
+BLOCK_FILES = (*DOC_BLOCKS.items(), (FOLDER_README, FOLDER_BLOCKS), (INDEX, INDEX_BLOCKS))
 
 
 def markers(name: str) -> tuple[str, str]:

@@ -202,7 +202,8 @@ KEY_CASES = [
     ("train", "split.val", ["~datamodule.window", "+datamodule.windw=64"], ["datamodule.windw", "datamodule.window"]),
     ("discover", "thinning.downsample", ["~discover.margin", "+discover.margn=0.05"],
      ["discover.margin", "discover.margn"]),
-    ("simulate", "input.cycles", ["~solver.method", "+solver.methd=rk4"], ["solver.method", "solver.methd"]),
+    ("simulate", "input.cycles", ["~simulation.method", "+simulation.methd=rk4"],
+     ["simulation.method", "simulation.methd"]),
     ("study", "reduced", ["~reduced", "+reducd=true"], ["reduced", "reducd"]),
 ]
 
@@ -218,7 +219,7 @@ def test_a_deleted_or_misspelt_key_is_one_line_naming_it(app, deleted, misspelt,
 
     def composed(overrides):
         if app == "study":
-            return compose_study("seed004_symmetric_damper", f"run_dir={tmp_path}", "progress=false", *overrides)
+            return compose_study("symmetric_damper", f"run_dir={tmp_path}", "progress=false", *overrides)
         return _compose(app, tmp_path, [*extra, *overrides])
 
     message = _one_line_error(run, composed([f"~{deleted}"]), capsys)

@@ -1,5 +1,5 @@
-"""README "Control inputs": the example CSV, its documented commands composed and run on it (reduced), and the
-one-line errors for a control given wrongly."""
+"""docs/controls.md ("Control inputs"): the example CSV, its documented commands composed and run on it (reduced),
+and the one-line errors for a control given wrongly."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "controls"
 
 
-COMMANDS = readme_commands("Control inputs")
+COMMANDS = readme_commands(ROOT / "docs" / "controls.md")
 
 
 def _compose(app: str, tmp_path: Path, *extra: str, csv: Path | None = None):
@@ -133,7 +133,7 @@ def test_simulate_drives_spencers_damper_by_a_held_voltage_and_a_model_by_the_re
         cfg = compose("simulate", overrides=[f"run_dir={tmp_path / 'sine'}", "model=mr_damper_spencer",
                                              "+conditions={voltage: 1.5}", "input.amplitude=1.5",
                                              "input.frequency_hz=2.5", "input.samples_per_cycle=400",
-                                             "solver.substeps=8", "progress=false"])
+                                             "simulation.substeps=8", "progress=false"])
     simulate.run(cfg)
     force = pd.read_csv(tmp_path / "sine" / "predictions.csv")["force"]
     assert 1000 < force.abs().max() < 2000  # N: the paper's damper at 1.5 V
@@ -150,7 +150,7 @@ def test_the_physics_residual_refuses_a_lagged_control_in_one_line(tmp_path):
     from hybridhyst.cli import train
 
     cfg = _compose("train", tmp_path, "progress=false", "model=mr_damper_voltage", "loss.lambda_phys=0.1",
-                   "nominal_init.method=none")
+                   "nominal_init.start=none")
     with pytest.raises(ValueError, match="lambda_phys=0 and module=physics or hybrid"):
         train.run(cfg)
 
@@ -170,7 +170,7 @@ def test_simulate_resolves_its_step_or_says_it_cannot(tmp_path):
     resolved = run("resolved")["records"]["sine"]
     assert resolved["substeps"] > 1 and resolved["change"] <= 1e-3
     with pytest.raises(ValueError, match="not resolved"):
-        run("capped", "solver.max_substeps=2", "solver.substeps=2", "model.effects.stiffness.k=1e6")
+        run("capped", "max_substeps=2", "simulation.substeps=2", "model.effects.stiffness.k=1e6")
 
 
 def test_a_control_in_another_unit_than_the_models_is_one_line(tmp_path):

@@ -14,7 +14,7 @@ import torch
 from hybridhyst.data import Record, RecordSet
 from hybridhyst.discover import Scales, diagnose, discover, features, information_criterion, structure_explained
 from hybridhyst.discover.report import write_discovery
-from hybridhyst.simulate import simulate
+from hybridhyst.simulate import SimulationSettings, simulate
 from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
 
 NOISE = 0.02
@@ -297,7 +297,7 @@ def test_discover_app_on_the_measured_brfd_data(tmp_path, capsys):
                  "discover.identify.generations=3", "discover.lm_steps=10", "thinning.samples_per_cycle=16"]
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose(config_name="discover", overrides=overrides)
-        wrong = compose(config_name="discover", overrides=[*overrides, "experiment=seed001_vpptd_dynamics"])
+        wrong = compose(config_name="discover", overrides=[*overrides, "experiment=vpptd_dynamics"])
     report = app.run(cfg)
     saved = json.loads((tmp_path / "discovery.json").read_text())
     assert saved["steps"] == report["steps"] and len(saved["records"]["test"]) == 4  # the earthquakes
@@ -452,12 +452,12 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
                               conditions={"amplitude_in": amp}))
     model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": Clearance(sigma0=12.0, Fc=0.55, a=-0.1,
                                                                                     r=0.05)}).double()
-    sim = {"backend": "fast", "method": "rk4", "substeps": 2}
+    sim = SimulationSettings(substeps=2)
     fit = polish(model, records, sim, 25, 10.0)
     scales = Scales.of(records)
     (cand,) = start_candidates(fit.model, scales)
     assert cand.name == "clearance.start" and cand.kind == "start" and cand.free == ["clearance.q0"]
-    c_fit = fit_candidate(cand, fit.model, records, {**sim, "substeps": fit.substeps}, 25, 10.0)
+    c_fit = fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
     assert c_fit.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
     assert math.sqrt(c_fit.sse / sum(len(r_) for r_ in records)) < 1.2 * noise < math.sqrt(fit.sse / 600)
     assert start_candidates(c_fit.model, scales) == []  # started already
@@ -531,7 +531,7 @@ def test_an_estimated_noise_level_is_capped_by_what_the_model_already_leaves(flo
     is still named, and once a model leaves less than the estimate its training RMSE is the level the rule uses;
     a level the user gave is kept."""
     from hybridhyst.discover.fitting import Fit
-    from hybridhyst.discover.loop import Loop, Options
+    from hybridhyst.discover.loop import DiscoverSettings, Loop
 
     rng = np.random.default_rng(0)
     out = []
@@ -542,16 +542,16 @@ def test_an_estimated_noise_level_is_capped_by_what_the_model_already_leaves(flo
         out.append(Record(name=f"s{amp:g}_{f:g}", t=t, x=x, y=y, conditions={"amplitude_in": amp, "frequency_hz": f}))
     records = RecordSet(out)
     res = discover(records, base_model("coulomb"), candidates=["coulomb"], split=SPLIT, conditions=False,
-                   backend="reference", **FAST)
+                   simulation=SimulationSettings(backend="reference"), **FAST)
     noise = res.report["noise"]
     assert noise["source"].startswith("estimated") and noise["sd"] > 2 * NOISE
     assert [s["effect"] for s in res.report["steps"]] == ["coulomb"]
-    loop = Loop(records, base_model("coulomb"), Options(split=SPLIT, conditions=False))
+    loop = Loop(records, base_model("coulomb"), DiscoverSettings(split=SPLIT, conditions=False))
     n = loop.n_train
     loop.fit = Fit(loop.model, sse=n * (0.5 * noise["sd"]) ** 2, k=3)
     assert loop.rule.noise == pytest.approx(0.5 * noise["sd"])  # capped by the model's training RMSE
     loop.fit = Fit(loop.model, sse=n * (2 * noise["sd"]) ** 2, k=3)
     assert loop.rule.noise == pytest.approx(noise["sd"])
-    given = Loop(records, base_model("coulomb"), Options(split=SPLIT, conditions=False, noise_sd=1.0))
+    given = Loop(records, base_model("coulomb"), DiscoverSettings(split=SPLIT, conditions=False, noise_sd=1.0))
     given.fit = loop.fit
     assert given.rule.noise == 1.0

@@ -99,7 +99,7 @@ def test_global_search_recovers_dahl_law(search, dahl_data):
 def test_a_coordinate_the_box_stops_is_reported_at_its_edge(dahl_data):
     """The truth (c = 0.5) lies above a box that ends at 0.2: the fit ends on that edge and says so; a box
     holding the truth flags nothing."""
-    opts = {"method": "de", "pop": 16, "generations": 10, "seed": 0, "progress": False, "fisher": False}
+    opts = {"search": "de", "pop": 16, "generations": 10, "seed": 0, "progress": False, "fisher": False}
     res = identify(_dahl(), dahl_data, bounds={**BOUNDS, "viscous.c": (0.05, 0.2)}, **opts)
     assert res.at_bounds == {"viscous.c": "upper"} and res.x["viscous.c"] == pytest.approx(0.2, rel=1e-3)
     assert identify(_dahl(), dahl_data, bounds=BOUNDS, **opts).at_bounds == {}
@@ -137,7 +137,7 @@ def test_refinement_reduces_cost(dahl_data):
 
 def test_search_on_decimated_records_still_identifies(dahl_data):
     """The global search may run on every 2nd sample; refinement and the reported cost use all samples."""
-    res = identify(_dahl(), dahl_data, method="de", bounds=BOUNDS, pop=16, generations=15, search_decimate=2,
+    res = identify(_dahl(), dahl_data, search="de", bounds=BOUNDS, pop=16, generations=15, search_decimate=2,
                    fisher=False, progress=False, seed=1)
     problem = _problem(dahl_data)
     x = torch.tensor([res.x[n] for n in problem.space.names])
@@ -198,7 +198,7 @@ def _linear(intercept, slope):
 def test_cli_run_writes_summary(tmp_path, capsys):
     overrides = [f"run_dir={tmp_path}", "progress=false", "data.mixtures=[1:3]", "data.pressures=[0.05]",
                  "data.cycles=1", "data.samples_per_cycle=240", "identify.pop=8", "identify.generations=2",
-                 "identify.restarts=2", "identify.lm_steps=2", "identify.substeps=2"]
+                 "identify.restarts=2", "identify.lm_steps=2", "simulation.substeps=2"]
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose(config_name="identify", overrides=overrides)
     summary = identify_cli.run(cfg)
@@ -555,7 +555,7 @@ def test_standard_deviations_are_given_at_the_least_squares_minimum(tmp_path):
     assert summary["uncertainty"] and summary["rmse"] < 1.05 * 2.0
     model = instantiate(OmegaConf.load(tmp_path / "run" / "model" / "identified.yaml"), _convert_="all").double()
     space = SearchSpace(model)
-    problem = RecordsProblem(space, list(identify_cli._load(cfg)), substeps=int(cfg.identify.substeps))
+    problem = RecordsProblem(space, list(identify_cli._load(cfg)), substeps=int(cfg.simulation.substeps))
     x = space.initial()
     before = float(problem.cost(x[None])[0])
     after = levenberg_marquardt(problem.residuals, space, x[None], iters=40, progress=False).cost

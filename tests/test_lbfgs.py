@@ -18,7 +18,7 @@ from hybridhyst.cli.common import CONF_DIR
 from hybridhyst.optim import line_search_loss
 from hybridhyst.training.build import build_datamodule, build_module, build_trainer
 
-SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none", "baseline=hybrid_mlp"]
+SMOKE = ["experiment=smoke", "logger=none", "nominal_init.start=none", "baseline=hybrid_mlp"]
 
 
 def _compose(overrides):

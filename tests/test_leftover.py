@@ -20,9 +20,10 @@ from hybridhyst.discover.leftover import FLAG_SHARE, neural_leftover, residual_n
 from hybridhyst.discover.validation import predict
 from hybridhyst.physics.effects import LinearStiffness, Viscous
 from hybridhyst.physics.models import DrivenOscillator
+from hybridhyst.simulate import SimulationSettings
 
 M, C, K, KP, R = 1.0, 0.3, 4.0, 6.0, 0.1  # mass [kg], damping [N s/m], springs [N/m], play half-width [m]
-SIM = {"backend": "fast", "method": "rk4", "substeps": 1}
+SIM = SimulationSettings()
 
 
 def _record(seed: int, plastic: bool, n: int = 200, dt: float = 0.05, sub: int = 40) -> Record:

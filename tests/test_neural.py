@@ -245,7 +245,7 @@ def test_identification_fits_the_physical_part_of_a_hybrid_with_its_network_held
     start = _damper()
     start.effects["viscous"].params["c"].value.data.fill_(0.3)  # truth 0.1
     model = start.augmented({"neural": net})
-    res = identify(model, records, method="cma", pop=8, generations=4, fisher=False, progress=False)
+    res = identify(model, records, search="cma", pop=8, generations=4, fisher=False, progress=False)
     assert res.rmse < 1e-4
     assert float(start.effects["viscous"].params["c"](None, 1)[0]) == pytest.approx(0.1, rel=1e-3)
 

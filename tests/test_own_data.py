@@ -1,4 +1,4 @@
-"""README "Your own measurements": the example CSV, and the documented commands composed and run on it
+"""docs/own-data.md ("Your own measurements"): the example CSV, and the documented commands composed and run on it
 (reduced: a few optimiser steps; the full discover command is marked slow)."""
 
 from __future__ import annotations
@@ -19,12 +19,10 @@ EXAMPLE = ROOT / "examples" / "own_data"
 TRAINING = ["p0.01", "p0.02", "p0.03", "p0.04", "p0.06", "p0.07", "p0.08"]
 
 
-def readme_commands(title: str = "Your own measurements") -> dict[str, list[str]]:
-    """{app: overrides} of the commands in the first bash block of README's section ``title`` (a second command of
-    one app: "app:2")."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
-    block = section.split("```bash\n", 1)[1].split("```", 1)[0]
+def readme_commands(page: Path = ROOT / "docs" / "own-data.md") -> dict[str, list[str]]:
+    """{app: overrides} of the commands in the first bash block of the guide ``page`` (a second command of one
+    app: "app:2")."""
+    block = page.read_text(encoding="utf-8").split("```bash\n", 1)[1].split("```", 1)[0]
     commands: dict[str, list[str]] = {}
     for command in block.replace("\\\n", " ").splitlines():
         words = shlex.split(command, comments=True)
@@ -49,7 +47,7 @@ def example_script(path: Path):
 
 
 def _compose(app: str, tmp_path: Path, *extra: str):
-    """The README command of ``app`` (the data path made absolute) plus ``extra`` overrides."""
+    """The documented command of ``app`` (the data path made absolute) plus ``extra`` overrides."""
     overrides = [o.replace("examples/own_data/", f"{EXAMPLE}/") for o in COMMANDS[app]]
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         return compose(app.split(":")[0], overrides=[f"run_dir={tmp_path}", *overrides, *extra])
@@ -203,7 +201,7 @@ def test_data_units_other_than_the_models_are_one_line(app, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_the_documented_discover_command_finds_the_pressure_trends(tmp_path):
-    """The README command as it stands (about 20 s here): trends in pressure_mpa take the held-out RMSE to
+    """The documented command as it stands (about 20 s here): trends in pressure_mpa take the held-out RMSE to
     the noise level."""
     from hybridhyst.cli import discover
 
@@ -214,7 +212,7 @@ def test_the_documented_discover_command_finds_the_pressure_trends(tmp_path):
 
 
 def test_train_with_a_nominal_that_lacks_nothing_ends_at_the_noise(tmp_path):
-    """The README's second training command (every parameter linear in the pressure, slopes from 0): with its
+    """The guide's second training command (every parameter linear in the pressure, slopes from 0): with its
     defaults (here 2 epochs) the identified start puts the held-out pressures within 2 × the 0.2 Nm noise,
     and metrics.json reports the identified nominal beside the hybrid."""
     from hybridhyst.cli import train

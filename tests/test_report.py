@@ -343,7 +343,7 @@ def test_identify_loops_come_from_the_loop_figure(tmp_path, drawn):
 
     overrides = [f"run_dir={tmp_path}", "progress=false", "data.mixtures=[1:3]", "data.pressures=[0.05]",
                  "data.cycles=1", "data.samples_per_cycle=240", "identify.pop=8", "identify.generations=2",
-                 "identify.restarts=2", "identify.lm_steps=2", "identify.substeps=2"]
+                 "identify.restarts=2", "identify.lm_steps=2", "simulation.substeps=2"]
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         identify_cli.run(compose(config_name="identify", overrides=overrides))
     (fig,) = drawn

@@ -240,7 +240,7 @@ def test_identify_with_monte_carlo_or_grid_then_lm_recovers_a_spring_dashpot(met
     with torch.no_grad():
         y = simulate(truth, torch.as_tensor(x)[None], t=torch.as_tensor(t), backend="fast")[0, :, 0].numpy()
     model = Constitutive({"viscous": Viscous(c=1.0), "spring": EFFECTS["linear_stiffness"](k=1.0)}).double()
-    res = identify(model, Record(name="r", t=t, x=x, y=y), method=method, pop=16, generations=4, rounds=1,
+    res = identify(model, Record(name="r", t=t, x=x, y=y), search=method, pop=16, generations=4, rounds=1,
                    fisher=False, progress=False)
     assert res.search == method and res.x["viscous.c"] == pytest.approx(0.4, rel=1e-5)
     assert res.x["spring.k"] == pytest.approx(3.0, rel=1e-5)

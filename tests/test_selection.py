@@ -14,8 +14,9 @@ from hybridhyst.discover.selection import simplify
 from hybridhyst.discover.validation import rmse_on
 from hybridhyst.physics.effects import Coulomb, LinearStiffness, Stribeck, Viscous
 from hybridhyst.physics.models import Constitutive
+from hybridhyst.simulate import SimulationSettings
 
-SIM = {"backend": "reference", "method": "rk4", "substeps": 1}
+SIM = SimulationSettings(backend="reference")
 OPTS = {"lm_steps": 25, "box_factor": 10.0}
 
 pytestmark = pytest.mark.usefixtures("float64")  # tests/conftest.py
@@ -103,7 +104,7 @@ def test_an_added_effect_is_swapped_for_a_finalist_it_beat_only_when_the_loop_na
                           "coulomb": Coulomb(Fc=0.4, v_s=0.01, fixed=["v_s"]),
                           "bouc_wen": BoucWenHysteresis(alpha=0.0, k=0.3, k1=0.0, D=1.0, A=1.0, beta=0.0, gamma=-0.3,
                                                         n=2.0, fixed=["alpha", "k1", "D", "A"])}).double()
-    sim = {**SIM, "backend": "fast"}  # a hysteretic state: the compiled loop
+    sim = SIM.replace(backend="fast")  # a hysteretic state: the compiled loop
     fit = polish(model, records, sim, 25, 10.0)
 
     def run(rivals, settled=False):

@@ -9,7 +9,7 @@ import pytest
 
 from hybridhyst.studies.seed000 import pinn_identification, softplus_model
 
-STUDY = "seed000_pinn_identification"
+STUDY = "vpptd_pinn_identification"
 
 
 def test_softplus_model_makes_all_four_parameters_positive():

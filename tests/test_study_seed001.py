@@ -24,7 +24,7 @@ from hybridhyst.synth import forced_response, identifiable_combinations
 
 
 def _compose(tmp_path, *overrides):
-    return study_cli.compose_study("seed001_vpptd_dynamics", f"run_dir={tmp_path}", "progress=false", *overrides)
+    return study_cli.compose_study("vpptd_dynamics", f"run_dir={tmp_path}", "progress=false", *overrides)
 
 
 def test_experiment_selects_the_study(tmp_path):
@@ -32,10 +32,10 @@ def test_experiment_selects_the_study(tmp_path):
     from hybridhyst.studies.seed001 import vpptd_dynamics
 
     cfg = _compose(tmp_path)
-    assert cfg.study == "seed001_vpptd_dynamics"
+    assert cfg.study == "vpptd_dynamics"
     assert get_study(cfg.study) is vpptd_dynamics
     assert set(cfg.study_options["mixtures"]) <= set(TABLE1)
-    with pytest.raises(ValueError, match="unknown study 'seed001'.*seed001_vpptd_dynamics"):
+    with pytest.raises(ValueError, match="unknown study 'seed001'.*vpptd_dynamics"):
         get_study("seed001")
 
 
@@ -84,7 +84,7 @@ def test_reduced_study_identifies_nbr_and_reproduces_table2_and_the_forced_rig(t
 
 
 def test_study_options_are_validated(tmp_path):
-    study = get_study("seed001_vpptd_dynamics")
+    study = get_study("vpptd_dynamics")
     cfg = _compose(tmp_path)
     options = {**dict(cfg.study_options), "reduced": False, "progress": False, "seed": 0}
     with pytest.raises(ValueError, match="mixtures.*choose from"):

@@ -10,7 +10,7 @@ import torch
 from hybridhyst.analysis import fit_trend
 from hybridhyst.studies.seed002 import TABLE1
 
-STUDY = "seed002_loop_metrics"
+STUDY = "vpptd_loop_metrics"
 
 
 def test_table1_is_self_consistent_and_rises_to_a_maximum(reduced_study):

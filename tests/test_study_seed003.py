@@ -1,4 +1,4 @@
-"""Seed 003 study (experiments/seed003_hybrid_pinn_piezo): the reduced run and its option checks."""
+"""Seed 003 study (experiments/piezo_hybrid_pinn): the reduced run and its option checks."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from hybridhyst.physics.compositions.seed003 import TABLE1
 from hybridhyst.report.collect import collect_runs
 from hybridhyst.studies.seed003 import _settings, sample_times
 
-NAME = "seed003_hybrid_pinn_piezo"
+NAME = "piezo_hybrid_pinn"
 
 
 def _options(**overrides) -> dict:

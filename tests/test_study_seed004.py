@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-STUDY = "seed004_symmetric_damper"
+STUDY = "symmetric_damper"
 
 
 def test_grid_search_recovers_the_figure9_parameters(reduced_study):

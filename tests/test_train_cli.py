@@ -26,7 +26,7 @@ from hybridhyst.studies import STUDIES
 
 CONF = Path(CONF_DIR)
 GROUPS = ["data", "model", "residual", "loss", "trainer", "logger", "baseline", "sweep", "experiment"]
-SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none"]  # the identified start: test_train_convergence
+SMOKE = ["experiment=smoke", "logger=none", "nominal_init.start=none"]  # the identified start: test_train_convergence
 
 
 def _compose(overrides, hydra_cfg=False):

@@ -68,14 +68,14 @@ def _start_rmse(cfg) -> float:
 def test_the_nominal_starts_from_an_identified_fit_by_default(loops, tmp_path):
     default = _start_rmse(_compose(loops, tmp_path, "module=physics"))
     assert default == pytest.approx(NOISE, rel=0.15)  # the noise floor before the first epoch
-    config_values = _start_rmse(_compose(loops, tmp_path, "module=physics", "nominal_init.method=none"))
+    config_values = _start_rmse(_compose(loops, tmp_path, "module=physics", "nominal_init.start=none"))
     assert config_values > 10 * NOISE  # what it would start from without the identification
     # seed 000's recipe re-initialises the parameters near zero: no identification there
-    noise_start = _start_rmse(_compose(loops, tmp_path, "module=physics", "loss=seed000"))
+    noise_start = _start_rmse(_compose(loops, tmp_path, "module=physics", "loss=pinn_recipe"))
     assert noise_start > 10 * NOISE
-    assert train.run_info(_compose(loops, tmp_path, "module=physics", "loss=seed000"))["nominal_init"] == "init_noise"
-    with pytest.raises(ValueError, match="unknown nominal_init.method 'fit'"):
-        _start_rmse(_compose(loops, tmp_path, "nominal_init.method=fit"))
+    assert train.run_info(_compose(loops, tmp_path, "module=physics", "loss=pinn_recipe"))["nominal_init"] == "init_noise"
+    with pytest.raises(ValueError, match="unknown nominal_init.start 'fit'"):
+        _start_rmse(_compose(loops, tmp_path, "nominal_init.start=fit"))
     with pytest.raises(ValueError, match="nominal_init.settings.generation"):
         _start_rmse(_compose(loops, tmp_path, "nominal_init.settings={generation: 3}"))
 
@@ -85,12 +85,13 @@ def test_nominal_init_settings_lie_over_the_identify_defaults_and_the_simulation
     training simulation, then nominal_init.settings over them all; a key named like a helper argument is the
     same one-line error as any unknown key."""
     opts = train._identify_settings(_compose(loops, tmp_path, "simulation.substeps=3"))
-    assert opts["fisher"] is False and opts["substeps"] == 3 and opts["pop"] == 32 and opts["bounds"] == {}
+    assert opts.fisher is False and opts.simulation.substeps == 3 and opts.pop == 32 and opts.bounds == {}
     opts = train._identify_settings(_compose(loops, tmp_path, "simulation.substeps=3",
-                                             "nominal_init.settings={pop: 8, substeps: 2, fisher: true, "
+                                             "nominal_init.settings={pop: 8, simulation: {substeps: 2}, fisher: true, "
                                              "bounds: {viscous.c: [0.1, 2]}}"))
-    assert (opts["pop"], opts["substeps"], opts["fisher"]) == (8, 2, True)
-    assert opts["bounds"] == {"viscous.c": (0.1, 2)} and isinstance(opts["bounds"]["viscous.c"], tuple)
+    assert (opts.pop, opts.simulation.substeps, opts.fisher) == (8, 2, True)
+    assert opts.simulation.backend == "fast"  # the rest of the training simulation kept
+    assert opts.bounds == {"viscous.c": (0.1, 2)} and isinstance(opts.bounds["viscous.c"], tuple)
     for key in ("where", "block"):
         with pytest.raises(ValueError, match=f"unknown config key nominal_init.settings.{key}"):
             train._identify_settings(_compose(loops, tmp_path, f"nominal_init.settings={{{key}: 3}}"))
@@ -179,4 +180,4 @@ def test_the_cosine_schedule_decays_every_rate_to_its_final_share(loops, tmp_pat
         module.configure_optimizers()
     with pytest.raises(ValueError, match="unknown lr_schedule 'linear'"):
         train.run(_compose(loops, tmp_path / "x", "module=hybrid", "trainer.lr_schedule=linear",
-                           "nominal_init.method=none"))
+                           "nominal_init.start=none"))

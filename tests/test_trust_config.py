@@ -24,7 +24,7 @@ from hybridhyst.cli.common import CONF_DIR, guarded, hydra_entry
 from hybridhyst.cli.overrides import check_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
-TRAIN = ["logger=none", "trainer.enable_progress_bar=false", "nominal_init.method=none"]
+TRAIN = ["logger=none", "trainer.enable_progress_bar=false", "nominal_init.start=none"]
 
 
 def _compose(app: str, overrides, hydra_cfg: bool = False):
@@ -177,13 +177,14 @@ def test_documented_overrides_pass_the_check(app, overrides, tmp_path):
 
 
 def _documented_commands() -> list[tuple[str, list[str]]]:
-    """(app, overrides) of every command in the README's and the experiments' READMEs' code blocks (a sweep's first
+    """(app, overrides) of every command in the README's, docs/'s and the experiments' READMEs' code blocks (a sweep's first
     value; lines with shell variables left out)."""
     import re
     import shlex
 
     commands = []
-    for readme in [ROOT / "README.md", *sorted((ROOT / "experiments").glob("*/README.md"))]:
+    for readme in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")),
+                   *sorted((ROOT / "experiments").glob("*/README.md"))]:
         for block in re.findall(r"```(?:bash|sh)?\n(.*?)```", readme.read_text(encoding="utf-8"), flags=re.S):
             for line in block.replace("\\\n", " ").splitlines():
                 try:
@@ -222,7 +223,7 @@ def test_max_epochs_minus_one_is_lightnings_no_limit_with_a_stopping_rule():
 
 def test_an_app_inside_another_apps_run_is_not_checked_against_its_command_line(tmp_path):
     """A study runs other apps' ``run`` inside its own Hydra run: the study's overrides are not theirs."""
-    with hydra_run("study", tmp_path, ["experiment=seed004_symmetric_damper", "+study_options.x=1"]):
+    with hydra_run("study", tmp_path, ["experiment=symmetric_damper", "+study_options.x=1"]):
         check_overrides(_compose("fit", ["+fit.stepz=10"]), "fit")
 
 

@@ -65,7 +65,7 @@ SMALL_SEARCH = "{pop: 8, generations: 2, restarts: 2, lm_steps: 3}"
 # app, overrides, texts the error must hold (records and samples), the file the results go to
 CASES = [
     pytest.param("simulate", ["model=linear_oscillator", "model.effects.stiffness.k=1e9", "progress=false",
-                              "solver.resolve=false"],  # (step doubling resolves it: tests/test_controls_cli.py)
+                              "resolve=false"],  # (step doubling resolves it: tests/test_controls_cli.py)
                  ["1 of 1 record: 'sine' from sample"], "summary.json", id="simulate-stiff-spring-on-the-default-sine"),
     pytest.param("simulate", ["model=linear_oscillator", "model.effects.stiffness.k=1e9", "input.kind=free_vibration",
                               "progress=false"],
@@ -94,7 +94,7 @@ CASES = [
                  ["1 of 3 records: 'coarse' (test) from sample"], "discovery.json",
                  id="discover-held-out-record-diverges"),
     pytest.param("train", [*DATA, "model.effects.stiffness.k=1e12", "split.held_out=[{amp: [3.0]}]",
-                           "split.select={amp: [1.0, 2.0, 3.0]}", "module=physics", "nominal_init.method=none",
+                           "split.select={amp: [1.0, 2.0, 3.0]}", "module=physics", "nominal_init.start=none",
                            "trainer=smoke", "logger=none", "datamodule.window=64", "datamodule.warmup=8",
                            "datamodule.samples_per_cycle=null"],
                  ["'fine_a' (train) from sample"], "metrics.json", id="train-nominal-diverges"),

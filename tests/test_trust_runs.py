@@ -26,7 +26,7 @@ from hybridhyst.cli import train
 from hybridhyst.cli.common import CONF_DIR, guarded
 from hybridhyst.training.config import instantiate
 
-SMOKE = ["experiment=smoke", "logger=none", "nominal_init.method=none"]
+SMOKE = ["experiment=smoke", "logger=none", "nominal_init.start=none"]
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
 
 

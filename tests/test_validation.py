@@ -18,8 +18,9 @@ from hybridhyst.discover.validation import Score, Validation, condition_groups, 
 from hybridhyst.physics.effects import LinearStiffness, Viscous
 from hybridhyst.physics.models import Constitutive
 from hybridhyst.physics.parameters import Linear
+from hybridhyst.simulate import SimulationSettings
 
-SIM = {"backend": "reference", "method": "rk4", "substeps": 1}
+SIM = SimulationSettings(backend="reference")
 PRESSURES = (0.1, 0.2, 0.3, 0.4)
 NOISE = 0.01
 
@@ -105,7 +106,7 @@ def test_loco_needs_two_operating_points_both_falls_back_to_the_records_and_an_u
 def test_the_loop_with_loco_finds_the_pressure_trend_and_says_how_it_judged():
     records = _records((0.1, 0.15, 0.2, 0.3, 0.4))
     res = discover(records, _model(0.3), candidates=["coulomb"], split={"held_out": {"pressure_mpa": [0.4]}},
-                   validation="loco", max_steps=1, fit_nominal=False, backend="reference", progress=False)
+                   validation="loco", max_steps=1, fit_nominal=False, simulation=SIM, progress=False)
     rep = res.report
     assert rep["validation"]["kind"] == "loco" and "4 training operating points" in rep["validation"]["on"]
     assert [s["effect"] for s in rep["steps"]] == ["trends~pressure_mpa"]
@@ -150,7 +151,7 @@ def test_with_both_a_trend_the_validation_records_cannot_see_is_not_accepted():
     val = _records((mean_p,), seed=3)
     results = {kind: discover(records + val, _model(0.3), candidates=["coulomb"],
                               split={"val": {"pressure_mpa": [mean_p]}}, validation=kind, max_steps=1,
-                              fit_nominal=False, backend="reference", progress=False, cross_check=check)
+                              fit_nominal=False, simulation=SIM, progress=False, cross_check=check)
                for kind, check in (("loco", "report"), ("both", "report"))}
     runs = {kind: res.report for kind, res in results.items()}
     assert [s["effect"] for s in runs["loco"]["steps"]] == ["trends~pressure_mpa"]
@@ -158,7 +159,7 @@ def test_with_both_a_trend_the_validation_records_cannot_see_is_not_accepted():
     assert cross["kind"] == "records" and cross["disagrees"] and not cross["refused"]
     assert "both" not in [s.get("cross_check", {}).get("kind") for s in runs["both"]["rejected"]]
     confirm = discover(records + val, _model(0.3), candidates=["coulomb"], split={"val": {"pressure_mpa": [mean_p]}},
-                       validation="loco", max_steps=1, fit_nominal=False, backend="reference", progress=False,
+                       validation="loco", max_steps=1, fit_nominal=False, simulation=SIM, progress=False,
                        cross_check="confirm").report
     refused = next(s for s in confirm["rejected"] if s["effect"] == "trends~pressure_mpa")
     assert confirm["steps"] == [] and refused["cross_check"]["refused"] and not refused["accepted"]

@@ -1,6 +1,6 @@
 """Write mr_damper_voltage.csv: a magnetorheological damper under random displacement and random coil voltage.
 
-numpy and scipy only (no hybridhyst code): the example data of README "Control inputs". The device: the coil's
+numpy and scipy only (no hybridhyst code): the example data of docs/controls.md. The device: the coil's
 field u follows the commanded voltage v with a first-order lag (du/dt = -eta (u - v), eta = 50 1/s); the force is
 
     F = (c_a + c_b u) dx/dt + (alpha_a + alpha_b u) z + k x,

@@ -1,6 +1,6 @@
 """Write ``damper_loops.csv``: torque–angle loops of a vacuum-packed-particle damper at nine underpressures.
 
-The example data set of README "Your own measurements", made with numpy only (no hybridhyst) so that it
+The example data set of docs/own-data.md, made with numpy only (no hybridhyst) so that it
 stands in for data measured elsewhere. The law is seed 000's four-parameter model
 
     M = c·φ̇ + k·φ + k2·φ³ + Ms·sign(φ̇)      (φ in deg, φ̇ in rad/s, M in Nm)

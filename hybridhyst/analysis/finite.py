@@ -128,7 +128,7 @@ def check_finite(predictions: Sequence, names: Sequence[str], times: Sequence | 
     keep_going=true writes the results anyway``. With ``keep_going`` the same text starts ``warning:`` and
     ends ``results written anyway (keep_going=true)``, goes to ``warn`` (default: stderr), and the diverged
     records are returned for the caller to name in its results. ``hint``: what to try, in the app's keys
-    (e.g. "raise solver.substeps or check the parameters"). Returns ``[]`` when every value is finite.
+    (e.g. "raise simulation.substeps or check the parameters"). Returns ``[]`` when every value is finite.
     """
     names = list(names)
     found = nonfinite_records(predictions, names, times, splits)

@@ -18,14 +18,14 @@ from omegaconf import DictConfig
 from ..data.decimate import decimate_all, decimation_factors
 from ..data.records import RecordSet
 from ..data.splits import Split
-from ..discover import discover
+from ..discover import DiscoverSettings, discover
 from ..discover.report import check_discovery, write_discovery
 from ..discover.result import disagreement_line
 from .common import (
     CONF_DIR,
     check_app,
-    check_kwargs,
     check_model_data,
+    config_block,
     guarded,
     hydra_entry,
     instantiate,
@@ -33,6 +33,7 @@ from .common import (
     mark_complete,
     prepare_run_dir,
     say,
+    simulation_settings,
     split_options,
     to_plain,
     torch_settings,
@@ -113,33 +114,29 @@ def _workers(d) -> int:
     return w
 
 
+def _settings(cfg: DictConfig) -> DiscoverSettings:
+    """``DiscoverSettings`` from ``cfg.discover`` (through the one typed schema: a misspelt key or a wrong type is a
+    one-line error naming it), the app's split, progress, seed and ``simulation:`` block."""
+    d = cfg.discover
+    block = {k: v for k, v in config_block(d, "discover.yaml", "discover").items() if k not in ("identify", "workers")}
+    first_fit = {**(to_plain(d.identify) or {}), "seed": int(cfg.seed)}
+    return DiscoverSettings.from_config(
+        block, "discover", split=split_options(cfg, ("held_out", "val")), progress=bool(cfg.progress),
+        workers=_workers(d), identify_options=first_fit, simulation=simulation_settings(cfg, "discover"))
+
+
 def run(cfg: DictConfig) -> dict:
     """Discover, write the run directory, print a short summary, return ``discovery.json``'s content."""
     check_app(cfg, "discover")
     run_dir = prepare_run_dir(cfg)
-    d = cfg.discover
     with torch_settings(cfg.dtype, cfg.get("threads"), cfg.get("seed")):
         records, parts = load_split(cfg)
-        conditions = to_plain(d.conditions)  # checked by discover, before any fitting
+        settings = _settings(cfg)  # its conditions are checked by discover, before any fitting
         model = instantiate(cfg.model, _convert_="all").double()
         note = check_model_data(model, records)  # before the first fit (the loop checks the conditions again)
         if note:  # records without units: the model's are assumed
             say(note)
-        split = split_options(cfg, ("held_out", "val"))
-        from ..identify import identify
-
-        first_fit = check_kwargs({**to_plain(d.identify), "seed": int(cfg.seed)}, identify, "discover.identify",
-                                 reserved=("model", "records", "fisher", "progress", "backend", "ode_method",
-                                           "substeps", "resolve", "max_substeps"))
-        options = dict(candidates=to_plain(d.candidates), split=split, conditions=conditions,
-                       label_conditions=to_plain(d.label_conditions), margin=float(d.margin), criterion=d.criterion,
-                       max_steps=int(d.max_steps), top=int(d.top), lm_steps=int(d.lm_steps), noise_sd=d.noise_sd,
-                       fit_nominal=bool(d.fit_nominal), identify_options=first_fit,
-                       backend=d.backend, method=d.method, substeps=int(d.substeps), refit=bool(d.refit),
-                       leftover=str(d.leftover), validation=str(d.validation),
-                       start_states=bool(d.start_states), progress=bool(cfg.progress), workers=_workers(d),
-                       cross_check=str(d.get("cross_check", "confirm")))
-        result = discover(records, model, **options)
+        result = discover(records, model, settings=settings)
     check_discovery(result, keep_going=bool(cfg.get("keep_going", False)),
                     time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))
     unit = records.records[0].units.get("y", "")

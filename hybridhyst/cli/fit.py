@@ -16,12 +16,12 @@ from pathlib import Path
 import hydra
 import numpy as np
 import pandas as pd
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from ..analysis.finite import check_finite
 from ..data.decimate import decimate, decimate_all, decimation_factors
 from ..identify.gradient import fit_gradient
-from ..simulate import simulate_resolved
+from ..simulate import SimulationSettings, simulate_resolved
 from ..simulate.api import MAX_SUBSTEPS_SCORED
 from ..training.config import config_number
 from .common import (
@@ -38,8 +38,9 @@ from .common import (
     prepare_run_dir,
     resolution_note,
     say,
+    simulation_settings,
     split_options,
-    start_options,
+    start_settings,
     to_plain,
     torch_settings,
     write_json,
@@ -79,7 +80,7 @@ def load_split(cfg: DictConfig):
     return train, test
 
 
-def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
+def _evaluate(model, records, factors, sim: SimulationSettings) -> tuple[dict, dict, list]:
     """Simulate every record on its evaluation grid; per-record RMSE and the pooled RMSE.
 
     The pooled value weights each record by its full-rate sample count, so it estimates the RMSE over
@@ -88,8 +89,7 @@ def _evaluate(model, records, factors, solver) -> tuple[dict, dict, list]:
     than any training one); the scores say how many (``substeps``).
     """
     data = [decimate(r, factors[r.name]) for r in records]
-    preds, substeps, _ = simulate_resolved(model, data, method=solver.method, substeps=solver.substeps,
-                                           backend=solver.backend)
+    preds, substeps, _ = simulate_resolved(model, data, settings=sim)
     per, frames = {}, []
     sq, n = 0.0, 0
     for r_full, r, p in zip(records, data, preds):
@@ -117,10 +117,10 @@ START = ("identify", "model")  # fit.start: a global search first, or the model 
 def _start(model, data, cfg) -> dict:
     """Where gradient descent starts (``fit.start``): ``identify``, the batched global search of
     ``hybridhyst-identify`` (conf/identify.yaml's ``identify:`` block with the fit's simulation settings, no Fisher
-    analysis, at ``fit.substeps``, then ``fit.identify``'s keys; as ``hybridhyst-train``'s ``nominal_init``) on the
-    fit's grid ``data``, which fits ``model`` in place; or ``model``, the model config's values. Local descent from
-    a config's values can end in a local minimum (on MR damper loops: negative damping at 3.4 times the error the
-    search reaches). Returns what the summary says about the start."""
+    analysis, at ``simulation.substeps``, then ``fit.identify``'s keys; as ``hybridhyst-train``'s
+    ``nominal_init``) on the fit's grid ``data``, which fits ``model`` in place; or ``model``, the model config's
+    values. Local descent from a config's values can end in a local minimum (on MR damper loops: negative damping
+    at 3.4 times the error the search reaches). Returns what the summary says about the start."""
     fit = cfg.fit
     start = str(fit.get("start", "identify"))
     if start not in START:
@@ -130,11 +130,10 @@ def _start(model, data, cfg) -> dict:
         return {"start": "model"}
     # at the fit's starting sub-steps, without step doubling of its own: the descent resolves them from there (a
     # search at each finer step would cost three times as much on the BRFD loops, for a start)
-    simulation = {"ode_method": fit.method, "substeps": int(fit.substeps), "backend": fit.backend}
-    opts = start_options(simulation, fit.get("identify"), "fit.identify")
-    result = identify_start(model, data, opts, "fit.identify", "fit.start=model starts from the model config's "
+    settings = start_settings(simulation_settings(cfg, "fit"), fit.get("identify"), "fit.identify")
+    result = identify_start(model, data, settings, "fit.identify", "fit.start=model starts from the model config's "
                             "values", seed=int(cfg.seed), progress=bool(cfg.progress))
-    return {"start": "identify", "search": result.search, "refine": str(opts["refine"]), "rmse": result.rmse,
+    return {"start": "identify", "search": result.search, "refine": str(settings.refine), "rmse": result.rmse,
             "evaluations": result.evaluations, "wall_s": result.wall_s, "substeps": result.substeps,
             "at_bounds": dict(result.at_bounds)}
 
@@ -173,8 +172,8 @@ def _fit(model, train, cfg) -> tuple:
     start = _start(model, decimate_all(train, factors, "the fit's start (fit.start=identify)"), cfg)
     result = fit_gradient(
         model, list(train), steps=steps, lr=lr, downsample=factors, loss=fit.loss,
-        lbfgs_steps=lbfgs_steps, progress=bool(cfg.progress), method=fit.method,
-        substeps=int(fit.substeps), backend=str(fit.backend), resolve=bool(fit.resolve),
+        lbfgs_steps=lbfgs_steps, progress=bool(cfg.progress),
+        simulation=simulation_settings(cfg, "fit"), resolve=bool(fit.resolve),
         max_substeps=int(fit.max_substeps),
     )
     return result, factors, start
@@ -201,12 +200,12 @@ def _score(model, train, held_out, cfg, substeps: int) -> tuple[dict, dict, dict
     """RMSE on the evaluation grid (finer than the fit's, with the fit's sub-steps per sample) for both parts:
     (scores, prediction frames, decimation factors)."""
     ev = cfg.evaluate
-    solver = OmegaConf.create({"method": cfg.fit.method, "substeps": substeps, "backend": cfg.fit.backend})
+    sim = simulation_settings(cfg, "fit").at(substeps)
     scores, frames, factors = {}, {}, {}
     for part, records in (("train", train), ("held_out", held_out)):
         f = decimation_factors(records, ev.samples_per_cycle, ev.downsample, cfg.fit.frequency_condition,
                                "fit.frequency_condition")
-        scores[part], part_frames, _ = _evaluate(model, list(records), f, solver)
+        scores[part], part_frames, _ = _evaluate(model, list(records), f, sim)
         frames.update({k: v.assign(split=part) for k, v in part_frames.items()})
         factors.update(f)
     return scores, frames, factors

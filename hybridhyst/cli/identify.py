@@ -32,13 +32,14 @@ from .common import (
     edge_line,
     guarded,
     hydra_entry,
-    identify_options,
+    identify_settings,
     instantiate,
     load_records,
     mark_complete,
     prepare_run_dir,
     resolution_note,
     say,
+    simulation_settings,
     split_options,
     torch_settings,
     write_json,
@@ -66,11 +67,13 @@ def _load(cfg) -> RecordSet:
 
 def _identify(model, records, cfg):
     noise = float(cfg.noise_sd or 0.0)  # the data's noise level (by default the noise added to them)
-    opts = identify_options(cfg.identify, "identify", ("noise_sd",))
-    return identify(model, records, seed=int(cfg.seed), progress=bool(cfg.progress), noise_sd=noise or None, **opts)
+    settings = identify_settings(cfg.identify, "identify", ("noise_sd",), seed=int(cfg.seed),
+                                 progress=bool(cfg.progress), noise_sd=noise or None,
+                                 simulation=simulation_settings(cfg, "identify"))
+    return identify(model, records, settings)
 
 
-HINT = "raise identify.substeps, narrow identify.bounds or check the model config's values"
+HINT = "raise simulation.substeps, narrow identify.bounds or check the model config's values"
 
 
 def _diverged_everywhere(error: ValueError, records: RecordSet, cfg, run_dir: Path, start: float) -> dict:
@@ -80,8 +83,7 @@ def _diverged_everywhere(error: ValueError, records: RecordSet, cfg, run_dir: Pa
     identified, so no model is written)."""
     model = instantiate(cfg.model, _convert_="all")
     with torch.no_grad():
-        preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
-                         substeps=int(cfg.identify.substeps))
+        preds = simulate(model, list(records), settings=simulation_settings(cfg, "identify"))
     unit = (records.records[0].units.get("t") if len(records) else None) or "s"
     found = nonfinite_records(preds, records.names, [r.t for r in records])
     if not found:
@@ -203,8 +205,8 @@ def run(cfg: DictConfig) -> dict:
                 raise
             return _diverged_everywhere(e, records, cfg, run_dir, start)
         with torch.no_grad():
-            preds = simulate(model, list(records), backend="fast", method=cfg.identify.ode_method,
-                             substeps=result.substeps)
+            preds = simulate(model, list(records), settings=simulation_settings(cfg, "identify").at(
+                result.substeps))
         unit = (records.records[0].units.get("t") if len(records) else None) or "s"
         diverged = check_finite(preds, records.names, [r.t for r in records], keep_going=bool(cfg.get("keep_going")),
                                 hint=HINT, what="the identified model's simulation", time_unit=unit,

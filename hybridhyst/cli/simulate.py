@@ -33,6 +33,7 @@ from .common import (
     mark_complete,
     prepare_run_dir,
     say,
+    simulation_settings,
     to_plain,
     torch_settings,
     write_json,
@@ -107,25 +108,23 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
 
 
 def _resolved(model, records, cfg, initial=None) -> tuple[list, dict]:
-    """``records`` simulated at the fewest sub-steps, from ``solver.substeps`` up to ``solver.max_substeps``, at
-    which halving the step changes the response by at most 0.1 % (``solver.resolve``: the check every app makes,
+    """``records`` simulated at the fewest sub-steps, from ``simulation.substeps`` up to ``max_substeps``, at
+    which halving the step changes the response by at most 0.1 % (``resolve``: the check every app makes,
     ``simulate.simulate_resolved``), and ``{"substeps", "change"}``. A response no sub-step count resolves is an
     error naming the sub-steps tried (with ``keep_going`` a warning): a coarse grid can give a finite response that
     is the integrator's, not the model's; one that diverged at every count is left to ``_check_finite``."""
-    solver = cfg.solver
-    kwargs = {"method": solver.method, "backend": solver.backend, "initial_state": initial}
-    if not bool(solver.get("resolve", True)):
+    sim = simulation_settings(cfg, "simulate")
+    if not bool(cfg.get("resolve", True)):
         with torch.no_grad():
-            return simulate(model, records, substeps=int(solver.substeps), **kwargs), {
-                "substeps": int(solver.substeps), "change": None}
-    top = max(int(solver.get("max_substeps", 64)), int(solver.substeps))
-    out, substeps, change = simulate_resolved(model, records, substeps=int(solver.substeps), max_substeps=top,
-                                              **kwargs)
+            return simulate(model, records, settings=sim, initial_state=initial), {
+                "substeps": sim.substeps, "change": None}
+    top = max(int(cfg.get("max_substeps", 64)), sim.substeps)
+    out, substeps, change = simulate_resolved(model, records, settings=sim, max_substeps=top, initial_state=initial)
     finite = all(bool(torch.isfinite(y).all()) for y in out)  # a diverged record: _check_finite names it
     if finite and not change <= RESOLVED:
-        text = (f"the response is not resolved: halving the step at {substeps} sub-steps per sample (solver."
+        text = (f"the response is not resolved: halving the step at {substeps} sub-steps per sample ("
                 f"max_substeps={top}) still changes it by more than {RESOLVED:.1%}; sample finer (input.downsample) "
-                "or raise solver.max_substeps")
+                "or raise max_substeps")
         if not bool(cfg.get("keep_going", False)):
             raise ValueError(text)
         say(f"warning: {text}", error=True)
@@ -139,7 +138,7 @@ def _check_finite(frames: list[pd.DataFrame], outputs: list[str], records: dict,
     unit = "s" if cfg.input.kind != "data" else (cfg.data.get("units") or {}).get("t", "s")
     diverged = check_finite([f[outputs].to_numpy() for f in frames], [str(f["record"].iloc[0]) for f in frames],
                             [f["t"].to_numpy() for f in frames], keep_going=bool(cfg.get("keep_going", False)),
-                            hint="raise solver.substeps (or sample finer) or check the model's parameters",
+                            hint="raise simulation.substeps (or sample finer) or check the model's parameters",
                             time_unit=unit, warn=lambda text: say(text, error=True))
     for d in diverged:
         records[d.record]["diverged"] = {"sample": d.sample, "t": d.t}

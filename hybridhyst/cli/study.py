@@ -1,6 +1,6 @@
 """``hybridhyst-study``: run a seed-paper reproduction (``hybridhyst.studies``).
 
-``hybridhyst-study experiment=seed000_pinn_identification`` runs the study an experiment config names
+``hybridhyst-study experiment=vpptd_pinn_identification`` runs the study an experiment config names
 (``study``, ``study_options``) and writes its tables, figures, ``results.md`` and ``summary.json`` into
 the run directory; ``publish=experiments/<name>`` also copies them into that experiment folder and
 regenerates the README's result block. ``reduced=true`` runs the small version CI tests.
@@ -30,7 +30,7 @@ __all__ = ["compose_study", "main", "run"]
 
 def compose_study(experiment: str, *overrides: str) -> DictConfig:
     """The composed ``study`` config of ``experiment=<name>`` plus Hydra ``overrides`` (for ``run`` from
-    Python or a test: e.g. ``run(compose_study("seed004_symmetric_damper", "run_dir=/tmp/s4", "reduced=true"))``)."""
+    Python or a test: e.g. ``run(compose_study("symmetric_damper", "run_dir=/tmp/s4", "reduced=true"))``)."""
     from hydra import compose, initialize_config_dir
 
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):

@@ -61,7 +61,8 @@ from .common import (
     prepare_run_dir,
     run_dir_path,
     say,
-    start_options,
+    simulation_settings,
+    start_settings,
     torch_settings,
     write_json,
 )
@@ -76,17 +77,16 @@ SPLITS = ("train", "val", "test")
 
 def build_module(cfg: DictConfig, dm: RecordDataModule):
     """``hybridhyst.training.build.build_module`` with the nominal identified first (``identify_nominal``) when
-    ``nominal_init.method`` is ``identify``: the module a run trains."""
+    ``nominal_init.start`` is ``identify``: the module a run trains."""
     return _build_module(cfg, dm, identify=identify_nominal)
 
 
-def _identify_settings(cfg: DictConfig) -> dict:
-    """identify() keyword arguments: conf/identify.yaml's ``identify:`` block (one source of the defaults),
-    the training simulation settings (its sub-steps, not ones step doubling would choose: the nominal is
-    identified as training simulates it), no Fisher analysis, then ``nominal_init.settings``."""
-    simulation = {"ode_method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps),
-                  "backend": cfg.simulation.backend}
-    return start_options(simulation, (cfg.get("nominal_init") or {}).get("settings"), "nominal_init.settings")
+def _identify_settings(cfg: DictConfig):
+    """``IdentifySettings`` of the nominal's start: conf/identify.yaml's ``identify:`` block (one source of the
+    defaults), the training simulation settings (its sub-steps, not ones step doubling would choose: the nominal
+    is identified as training simulates it), no Fisher analysis, then ``nominal_init.settings``."""
+    return start_settings(simulation_settings(cfg, "train"),
+                          (cfg.get("nominal_init") or {}).get("settings"), "nominal_init.settings")
 
 
 def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
@@ -97,12 +97,12 @@ def identify_nominal(cfg: DictConfig, dm: RecordDataModule, nominal) -> dict:
     progress = bool((cfg.get("nominal_init") or {}).get("progress", True))
     if progress:
         print(f"identifying the nominal on {len(records)} training records "
-              f"({opts['method']} + {opts['refine']}) ...", flush=True)
+              f"({opts.search} + {opts.refine}) ...", flush=True)
     result = identify_start(nominal, records, opts, "nominal_init.settings",
-                            "nominal_init.method=none starts from the model config's values", seed=int(cfg.seed),
+                            "nominal_init.start=none starts from the model config's values", seed=int(cfg.seed),
                             progress=progress)
     return {"rmse": result.rmse, "wall_s": result.wall_s, "records": len(records), "search": result.search,
-            "refine": str(opts["refine"]), "evaluations": result.evaluations, "x": result.x,
+            "refine": str(opts.refine), "evaluations": result.evaluations, "x": result.x,
             "at_bounds": dict(result.at_bounds)}
 
 

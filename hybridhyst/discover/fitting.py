@@ -5,6 +5,7 @@ that the simulator resolves a fitted model at the sample rate of the data.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -12,12 +13,14 @@ from dataclasses import dataclass, field
 
 import torch
 
-from ..identify.identify import RecordsProblem
+from ..identify.problem import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
-from ..simulate import resolved_substeps
+from ..simulate import SimulationSettings, resolved_substeps
+from ..simulate.fast import prebuild_models
 
-__all__ = ["Fit", "at", "fit_candidate", "polish", "search_points", "side_by_side", "sse_at"]
+__all__ = ["Fit", "at", "fit_candidate", "fit_candidates", "polish", "prebuild", "refit_on", "search_points",
+           "side_by_side", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
 
@@ -49,13 +52,13 @@ def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | No
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def at(sim: dict, fit: Fit) -> dict:
+def at(sim: SimulationSettings, fit: Fit) -> SimulationSettings:
     """Simulator settings for a fitted model (its own sub-steps per sample)."""
-    return {**sim, "substeps": fit.substeps}
+    return sim.at(fit.substeps)
 
 
 def _problem(space, train, sim, substeps):
-    return RecordsProblem(space, train, method=sim["method"], substeps=substeps, backend=sim["backend"])
+    return RecordsProblem(space, train, settings=sim.at(substeps))
 
 
 def _space(model, train, **options) -> SearchSpace:
@@ -71,7 +74,7 @@ def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
     return torch.where(torch.isfinite(c), c * problem.n_samples, torch.full_like(c, math.inf))
 
 
-def sse_at(fit: Fit, train, sim: dict, substeps: int) -> float:
+def sse_at(fit: Fit, train, sim: SimulationSettings, substeps: int) -> float:
     """The training SSE of a fitted model simulated with ``substeps`` sub-steps (no refit): a candidate that
     needed finer steps is compared with the current model at the same resolution."""
     if substeps == fit.substeps:
@@ -139,7 +142,7 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     """
     aug = candidate.build(model)
     space = _space(aug, train, bounds=candidate.bounds, factor=box_factor)
-    problem = _problem(space, train, sim, sim["substeps"])
+    problem = _problem(space, train, sim, sim.substeps)
     x0 = space.initial().clamp(space.lower, space.upper)
     current = dict(zip(space.names, x0.tolist()))
     starts = torch.tensor([[s.get(n, current[n]) for n in space.names] for s in candidate.starts],
@@ -167,16 +170,16 @@ def polish(model, train, sim, lm_steps: int, box_factor: float, step_doubling: b
     for finishing the previous fit. The model is updated in place. ``step_doubling=False`` keeps ``sim``'s sub-steps
     (no step doubling: a refit of an already resolved model on part of its records)."""
     space = _space(model, train, factor=box_factor)
-    problem = _problem(space, train, sim, sim["substeps"])
+    problem = _problem(space, train, sim, sim.substeps)
     x0 = space.initial().clamp(space.lower, space.upper)
     sse0 = float(_sse(problem, x0[None])[0])
     lm = converged_lm(problem, space, x0[None], lm_steps)
     improved = math.isfinite(lm.cost) and lm.cost * problem.n_samples <= sse0
     x, sse = (lm.x, lm.cost * problem.n_samples) if improved else (x0, sse0)
     if not step_doubling:
-        return _fit(space, x, sse, int(sim["substeps"]))
+        return _fit(space, x, sse, sim.substeps)
     fit = resolve(space, train, sim, x, lm_steps)
-    return fit if fit is not None else _fit(space, x0, sse0, int(sim["substeps"]))  # else the model as it was
+    return fit if fit is not None else _fit(space, x0, sse0, sim.substeps)  # else the model as it was
 
 
 def _fit(space: SearchSpace, x: torch.Tensor, sse: float, substeps: int) -> Fit:
@@ -200,7 +203,40 @@ def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> F
             x = lm.x
         space.to_model(x)
 
-    substeps, _ = resolved_substeps(space.model, train, substeps=int(sim["substeps"]), max_substeps=MAX_SUBSTEPS,
-                                    refit=refit, method=sim["method"], backend=sim["backend"])
+    substeps, _ = resolved_substeps(space.model, train, settings=sim, max_substeps=MAX_SUBSTEPS, refit=refit)
     sse = float(_sse(_problem(space, train, sim, substeps), x[None])[0])
     return _fit(space, x, sse, substeps) if math.isfinite(sse) else None
+
+
+def fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, bar) -> list:
+    """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``), ``workers`` at a
+    time; a candidate that cannot be simulated gets None."""
+    def one(cand):
+        try:
+            return fit_candidate(cand, model, train, sim, lm_steps, box_factor)
+        except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
+            return None
+
+    fits = side_by_side(one, cands, workers, lambda items, n: bar(items, "rank candidates", total=n))
+    return list(zip(cands, fits))
+
+
+def prebuild(cands, model, controls: tuple[str, ...] = ()) -> None:
+    """Build the candidates' compiled loops at once (one compiler per core); a candidate that cannot be built is
+    left to its own fit, which skips it."""
+    built = []
+    for cand in cands:
+        try:
+            built.append(cand.build(model))
+        except (ValueError, RuntimeError):
+            continue
+    try:
+        prebuild_models(built, controls)
+    except (ValueError, RuntimeError):
+        pass
+
+
+def refit_on(model, records, sim: SimulationSettings, lm_steps: int, box_factor: float):
+    """A copy of ``model`` with every coordinate refitted on ``records`` (LM from its values); its settings."""
+    f = polish(copy.deepcopy(model), records, sim, lm_steps, box_factor)
+    return f.model, at(sim, f)

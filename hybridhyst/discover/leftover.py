@@ -26,7 +26,7 @@ from ..identify import fit_gradient
 from ..identify.gradient import record_loss
 from ..nets import MLP
 from ..physics.effects import NeuralEffect
-from ..simulate import simulate, simulate_resolved
+from ..simulate import SimulationSettings, simulate, simulate_resolved
 from .candidates import Scales, _placed
 
 __all__ = ["FLAG_SHARE", "LEFTOVER", "neural_leftover", "residual_network", "structure_flagged"]
@@ -84,8 +84,9 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
             "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
 
 
-def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | None = None, hidden: str = "2x16",
-                    latent_states: int = 1, iterations: int = 40, seed: int = 0, progress: bool = True) -> dict:
+def neural_leftover(model, train, val=None, *, sim: SimulationSettings, conditions: dict | None = None,
+                    hidden: str = "2x16", latent_states: int = 1, iterations: int = 40, seed: int = 0,
+                    progress: bool = True) -> dict:
     """How much of the remaining error a network *inside* ``model``'s dynamics removes.
 
     A ``NeuralEffect`` (force and ``latent_states`` states of its own, inputs x and ẋ and the ``conditions``
@@ -117,21 +118,20 @@ def neural_leftover(model, train, val=None, *, sim: dict, conditions: dict | Non
     for w in augmented.effects["neural_leftover"].net.parameters():
         w.requires_grad_(True)
     fit = fit_gradient(augmented, list(train), steps=0, lbfgs_steps=int(iterations), progress=progress,
-                       method=sim["method"], substeps=sim["substeps"], backend=sim["backend"])
+                       simulation=sim)
 
     def mse(m, records, substeps):
-        preds = simulate(m, list(records), method=sim["method"], substeps=substeps, backend=sim["backend"])
+        preds = simulate(m, list(records), settings=sim.at(substeps))
         return float(record_loss(preds, list(records)))
 
     with torch.no_grad():
         scored = val or train
-        train_before = mse(model, train, sim["substeps"])
+        train_before = mse(model, train, sim.substeps)
         if val:  # the validation records at the sub-steps they need (as the loop scores them), both models alike
-            out, at, _ = simulate_resolved(model, list(val), substeps=sim["substeps"], method=sim["method"],
-                                           backend=sim["backend"])
+            out, at, _ = simulate_resolved(model, list(val), settings=sim)
             before = float(record_loss(out, list(val)))
         else:
-            at, before = sim["substeps"], train_before
+            at, before = sim.substeps, train_before
         after = mse(augmented, scored, at)
     return {"network": "dynamics", "explained_share": 1.0 - after / max(before, 1e-300),
             "on": "val" if val else "train", "rmse_after_network": math.sqrt(after), "rmse_before": math.sqrt(before),

@@ -25,202 +25,63 @@ Every change is judged by ``rule.Acceptance``; the result is typed (``Step``, ``
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from ..analysis.noise import noise_sd
-from ..data.records import Record, RecordSet
+from ..data.records import RecordSet
 from ..data.splits import Split, check_conditions
 from ..identify import identify
-from ..identify.space import condition_ranges, outside_domain
+from ..identify.space import outside_domain
 from ..physics.models import DrivenOscillator, conditions_used
 from ..progress import progress as progress_bar
 from ..settings import intra_op_threads
-from ..simulate.fast import prebuild_models
+from ..simulate import SimulationSettings
 from .candidates import Scales, library_candidates
+from .conditions import as_records, control_ranges, trend_conditions
 from .diagnose import diagnose
-from .fitting import Fit, fit_candidate, polish, side_by_side, sse_at
+from .finish import finish
+from .fitting import Fit, fit_candidates, polish, prebuild, sse_at
 from .fitting import at as _at
-from .leftover import LEFTOVER, neural_leftover, residual_network, structure_flagged
-from .result import Change, DiscoveryResult, Step
-from .rule import Acceptance, Judged, check_criterion, information_criterion
+from .result import Change, DiscoveryResult, Step, parameter_values
+from .rule import Acceptance, Judged, information_criterion
 from .selection import simplify
+from .settings import DiscoverSettings
 from .trends import MIN_LEVELS, fit_trends
 from .validation import Validation, condition_groups, improves, parts, record_metrics, rmse_on, simulated
 
-__all__ = ["Change", "DiscoveryResult", "Step", "discover", "information_criterion"]
-
-
-def _as_records(records) -> list[Record]:
-    return list(records.records if isinstance(records, RecordSet) else records)
-
-
-def _numeric_conditions(records) -> dict[str, list[float]]:
-    out: dict[str, list[float]] = {}
-    for r in records:
-        for k, v in r.conditions.items():
-            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(float(v)):
-                out.setdefault(k, []).append(float(v))
-    return {k: v for k, v in out.items() if len(v) == len(records)}
-
-
-def _trend_conditions(conditions, parts: Split) -> dict[str, list[float]]:
-    """``{condition: training values}`` the loop may make parameters depend on: those named (each a number in
-    every record, training, validation and test, with at least two training values; else a one-line error),
-    or with ``True`` every condition that is a number in every record (one that a validation or test record
-    lacks could not be evaluated there, so it is not offered)."""
-    if not conditions:
-        return {}
-    train = list(parts.train)
-    if isinstance(conditions, bool):
-        usable = _numeric_conditions([*train, *parts.val, *parts.test])
-        return {k: v for k, v in _numeric_conditions(train).items() if k in usable}
-    if isinstance(conditions, str):
-        raise ValueError(f"conditions must be true, false or a list of condition names, got {conditions!r}")
-    check_conditions(parts, list(conditions), "discover conditions", min_train_values=2)
-    values = _numeric_conditions(train)
-    return {c: values[c] for c in conditions if c in values}  # (the others are control channels: _controls)
-
-
-def _controls(conditions, train) -> dict[str, list[float]]:
-    """``{control: [lowest, highest]}`` over the training records of the control channels a parameter may follow:
-    every control the records carry (``conditions`` true) or those named; none with ``conditions`` false."""
-    if not conditions:
-        return {}
-    names = {c for c in train[0].controls if all(c in r.controls for r in train)}
-    if not isinstance(conditions, bool):
-        names &= set(conditions)
-    return {c: list(span) for c, span in condition_ranges(train).items() if c in names}
-
-
-def _parameters(model) -> dict:
-    return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
-            for e, params in model.parameter_table().items() for p, info in params.items()}
-
-
-CROSS_CHECK = ("confirm", "report", "off")
-
-
-@dataclass(frozen=True)
-class Options:
-    """``discover``'s settings (its docstring says what each means)."""
-
-    candidates: Sequence[str] | None = None
-    split: Mapping | None = None
-    conditions: bool | Sequence[str] = True
-    label_conditions: Sequence[str] | None = None
-    margin: float = 0.02
-    criterion: str = "bic"
-    max_steps: int = 4
-    top: int = 3
-    lm_steps: int = 25
-    box_factor: float = 10.0
-    noise_sd: float | None = None
-    fit_nominal: bool = True
-    identify_options: Mapping | None = None
-    backend: str = "fast"
-    method: str = "rk4"
-    substeps: int = 1
-    refit: bool = True
-    leftover: str = "static"
-    validation: str = "records"
-    start_states: bool = True
-    progress: bool = True
-    workers: int = 1
-    cross_check: str = "confirm"
-
-    def check(self) -> None:
-        from ..physics.effects import EFFECTS
-
-        check_criterion(self.criterion)
-        if self.cross_check not in CROSS_CHECK:
-            raise ValueError(f"unknown cross_check {self.cross_check!r}; choose one of {list(CROSS_CHECK)}")
-        if self.leftover not in LEFTOVER:
-            raise ValueError(f"unknown leftover measure {self.leftover!r}; choose one of {list(LEFTOVER)}")
-        unknown = [c for c in (self.candidates or []) if c not in EFFECTS]
-        if unknown:
-            raise ValueError(f"unknown candidate effect(s) {unknown}; the library has {sorted(EFFECTS)}")
-
-    @property
-    def sim(self) -> dict:
-        return {"backend": self.backend, "method": self.method, "substeps": int(self.substeps)}
+__all__ = ["Change", "DiscoverSettings", "DiscoveryResult", "Step", "discover", "information_criterion"]
 
 
 def discover(records, nominal, candidates: Sequence[str] | None = None, split: Mapping | None = None, *,
-             conditions: bool | Sequence[str] = True, label_conditions: Sequence[str] | None = None,
-             margin: float = 0.02, criterion: str = "bic", max_steps: int = 4,
-             top: int = 3, lm_steps: int = 25, box_factor: float = 10.0, noise_sd: float | None = None,
-             fit_nominal: bool = True, identify_options: Mapping | None = None, backend: str = "fast",
-             method: str = "rk4", substeps: int = 1, refit: bool = True, leftover: str = "static",
-             validation: str = "records", start_states: bool = True, progress: bool = True,
-             workers: int = 1, cross_check: str = "confirm", torch_threads: int | None = 1) -> DiscoveryResult:
+             settings: DiscoverSettings | None = None, **options) -> DiscoveryResult:
     """Find, name and add the effects a nominal model lacks; report the error before and after.
 
     Parameters
     ----------
     records : a ``RecordSet`` (or list of records) with operating conditions.
     nominal : the starting ``NominalModel`` (fitted in place and then augmented copies of it).
-    candidates : library effect names to consider (default: the whole library, see ``candidates.py``).
-    split : ``{"held_out": query, "val": query}`` as ``RecordSet.split``; test = held-out conditions.
-    conditions : also try making each constant parameter a linear function of each numeric condition
-        (True), of the conditions named (a list), or of none (False). Name only conditions that mean the
-        same physical thing on the held-out records (e.g. not a test frequency that is 0 for an earthquake).
-    label_conditions : conditions shown in per-condition labels (default: all).
-    margin : relative fall of the validation RMSE (training RMSE without validation records) required.
-    validation : what that RMSE is (``validation.py``): "records", the validation records' error (the training
-        records' without any); "loco", leave one operating condition out: each group of training records
-        that share their conditions predicted by the model refitted on the others, pooled with the
-        validation records' error (a refit per training operating point for every model scored); or "both",
-        the validation records' error and the training groups' leave-one-out error, each of which must fall
-        by the margin (``validation.Score``; the report gives both as ``parts_*``).
-    start_states : also try starting every record from one fitted state of an element the motion before a record
-        may leave away from rest (``Effect.start``: a gap's position, a presliding deflection), one candidate
-        per such element (``candidates.start_candidates``).
-    criterion : "bic" or "aic", which must also fall; max_steps : steps accepted at most (an effect, a
-        parameter function of a condition or a start state each).
-    top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
-        a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
-    noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats
-        models whose mean squared errors differ by at most ``rule.NOISE_SHARE`` σ² as within the noise of each
-        other; without it, σ is estimated from the training responses (``analysis.noise``) and capped by the
-        current model's training RMSE (both reported).
-    fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``, options in
-        ``identify_options``); else start from its current values.
-    backend, method, substeps : simulator settings ("fast": compiled, cached per model structure).
-    refit : once the structure is chosen, refit every parameter of the final model, and of the nominal it is
-        compared with, on the training *and* validation records (as a cross-validated search refits its
-        winner on all the data it may use). The validation RMSEs reported stay those of the training-only
-        fits, measured before the refit (out of sample); test and training errors, parameters and
-        predictions are the refitted models'. ``report["refit"]`` keeps the numbers without the refit.
-    leftover : how the structure left is measured (``leftover.py``): "static", a small network of the
-        kinematics fitted to the final residual point by point (seconds); "dynamics", a network with a latent
-        state fitted *inside* the final model's equations through the simulator (a memory a pointwise
-        correction cannot have; tens of seconds on the bundled BRFD, more on long records), on the
-        training-only fit (before the refit) so that the validation records are out of sample for the physics
-        too. Either's share of the residual recovered on validation records is reported and sets the flag when
-        no noise level is known.
-    workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
-        fit's rows then run in its own thread). The fits and the result are the same for any number.
-    cross_check : "confirm" (default), "report" or "off". For every step the rule accepts, also measure the
-        out-of-sample error it did not judge (with ``validation="records"``, leave-one-condition-out over the
-        training operating points; with ``"loco"``, the validation records'). When that error did not fall by the
-        margin too, the evidence disagrees: "confirm" refuses the step, "report" keeps it; either says so in one
-        line (``result.disagreement_line``; report and terminal summary). Why "confirm" is the default:
-        ``experiments/discovery_testbed``, "the cross-check: refuse or report". A refit per training operating
-        point for each model compared; nothing with ``"both"`` (both errors judged for every candidate).
-    torch_threads : torch intra-op threads during the run (restored after; None leaves them), as ``identify``.
+    candidates, split : as ``DiscoverSettings`` (given here too for the common call).
+    settings : ``DiscoverSettings`` (default its defaults); ``options``: any of its fields laid over it.
 
     Raises
     ------
     ValueError
         Unknown candidate names, a split leaving no training records, records too short to identify.
     """
-    options = Options(**{k: v for k, v in locals().items() if k not in ("records", "nominal", "torch_threads")})
-    options.check()
-    with intra_op_threads(torch_threads):
-        loop = Loop(records, nominal, options)
+    given = {k: v for k, v in (("candidates", candidates), ("split", split)) if v is not None}
+    unknown = sorted(set(options) - {f.name for f in dataclasses.fields(DiscoverSettings)})
+    if unknown:
+        renamed = {"backend": "simulation=SimulationSettings(backend=...)", "method": "simulation=SimulationSettings("
+                   "method=...)", "substeps": "simulation=SimulationSettings(substeps=...)"}
+        raise TypeError(f"discover has no option(s) {unknown}" + "".join(f"; use {renamed[k]} for {k}" for k in unknown
+                                                                         if k in renamed))
+    settings = (settings or DiscoverSettings()).replace(**given, **options)
+    with intra_op_threads(settings.torch_threads):
+        loop = Loop(records, nominal, settings)
         loop.nominal()
         loop.trends()
         loop.effects()
@@ -232,17 +93,17 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
 class Loop:
     """The loop's data, settings and state; one method per phase (module docstring)."""
 
-    def __init__(self, records, nominal, options: Options):
+    def __init__(self, records, nominal, options: DiscoverSettings):
         self.start_time = time.perf_counter()
         self.options = o = options
-        records = records if isinstance(records, RecordSet) else RecordSet(_as_records(records))
+        records = records if isinstance(records, RecordSet) else RecordSet(as_records(records))
         split = dict(o.split or {})
         parts_ = records.split(held_out=split.get("held_out"), val=split.get("val"))
-        self.train, self.val, self.test = (_as_records(p) for p in parts_)
+        self.train, self.val, self.test = (as_records(p) for p in parts_)
         if not self.train:
             raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
         self.splits = {"train": self.train, "val": self.val, "test": self.test}
-        cond_values = _trend_conditions(o.conditions, Split(self.train, self.val, self.test))
+        cond_values = trend_conditions(o.conditions, Split(self.train, self.val, self.test))
         self.trend_values = dict(cond_values)  # the conditions a parameter may depend on (a leftover network's too)
         check_conditions(Split(self.train, self.val, self.test), conditions_used(nominal),
                          "the nominal model (a parameter as a function of a condition)")
@@ -257,7 +118,7 @@ class Loop:
             "source": "estimated from the training responses' differences (analysis.noise), capped by the current "
                       "model's training RMSE"}
         self.base_rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
-        self.sim = o.sim
+        self.sim = o.simulation
         self.model = nominal
         self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
         # conditions with enough levels get their trends in one step (every constant parameter at once), before
@@ -267,7 +128,7 @@ class Loop:
         self.single_conditions = {c: v for c, v in cond_values.items() if c not in self.trend_conditions}
         # control channels (data.controls): a parameter may follow one (judged on every sample, like an effect),
         # and the control may lag (``control_lag``, offered once a parameter follows it)
-        self.controls = _controls(o.conditions, self.train)
+        self.controls = control_ranges(o.conditions, self.train)
         self.single_conditions.update(self.controls)
         self.steps: list[Step] = []
         self.rejected: list[Step] = []
@@ -310,11 +171,11 @@ class Loop:
         evidence = details.pop("evidence", {})
         return Step(effect=name, kind=kind, description=description, accepted=accepted, val_before=before.val,
                     val_after=judged.val, ic_before=before.ic, ic_after=judged.ic, criterion=self.rule.criterion,
-                    parameters=_parameters(fit.model), train_rmse=math.sqrt(fit.sse / self.n_train),
+                    parameters=parameter_values(fit.model), train_rmse=math.sqrt(fit.sse / self.n_train),
                     val_rmse=judged.val if self.score.out_of_sample else None, test_rmse=self._test_rmse(fit),
                     details=details, evidence_details=evidence)
 
-    def evaluate(self, model, sim: dict) -> tuple[dict, dict]:
+    def evaluate(self, model, sim: SimulationSettings) -> tuple[dict, dict]:
         """Predictions of every split (simulated once), their metrics and sub-steps: the training records at the
         fit's own sub-steps, the others at those they need."""
         runs = {s: simulated(model, rs, sim, resolve=s != "train") for s, rs in self.splits.items()}
@@ -366,9 +227,7 @@ class Loop:
         """Identify the nominal on the training records (unless told not to) and converge its fit: "before"."""
         o = self.options
         if o.fit_nominal:
-            opts = {"method": "cma", "pop": 24, "generations": 30, "restarts": 4, **dict(o.identify_options or {})}
-            identify(self.model, self.train, fisher=False, progress=o.progress, backend=o.backend,
-                     ode_method=o.method, substeps=o.substeps, **opts)
+            identify(self.model, self.train, o.first_fit())
         outside = outside_domain(self.model, self.train)
         if outside:
             raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "
@@ -451,9 +310,9 @@ class Loop:
     def _effect_step(self, cands) -> bool:
         """One step over ``cands``; whether a candidate was accepted."""
         o, fit = self.options, self.fit
-        if o.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
-            _prebuild(cands, fit.model, tuple(sorted(self.controls)))
-        ranking = _fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
+        if self.sim.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
+            prebuild(cands, fit.model, tuple(sorted(self.controls)))
+        ranking = fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
                                   int(o.workers), self._bar)
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
         ref = {s: sse_at(fit, self.train, self.sim, s) for s in {f.substeps for _, f in ranking if f is not None}}
@@ -502,106 +361,5 @@ class Loop:
             self.removals(rivals, settled=True)
 
     def result(self) -> DiscoveryResult:
-        """Refit the chosen structure, measure what is left and assemble the result."""
-        o = self.options
-        model, final_sim = self.fit.model, _at(self.sim, self.fit)
-        initial, initial_sim = self.initial, self.initial_sim
-        preds_before, before = self.preds_before, self.before
-        preds_after, after = self.evaluate(model, final_sim)
-        refitted = None
-        trained_model, trained_sim = model, final_sim  # the chosen structure fitted on the training records alone
-        if o.refit and self.val:  # the structure is chosen: its parameters (and the nominal's) use every non-test
-            chosen = {"before": (initial, before), "after": (model, after)}
-            initial, initial_sim = _refit_on(initial, self.train + self.val, initial_sim, o.lm_steps, o.box_factor)
-            model, final_sim = _refit_on(model, self.train + self.val, final_sim, o.lm_steps, o.box_factor)
-            preds_before, before = self.evaluate(initial, initial_sim)
-            preds_after, after = self.evaluate(model, final_sim)
-            refitted = {"records": [r.name for r in self.train + self.val]}
-            for side, now in (("before", before), ("after", after)):
-                m, was = chosen[side]
-                refitted[side] = {"val_rmse_in_sample": now["val"].get("rmse"),
-                                  "test_rmse_without_refit": was["test"].get("rmse"),
-                                  "train_rmse_without_refit": was["train"]["rmse"],
-                                  "parameters_without_refit": _parameters(m)}
-                now["val"] = was["val"]  # the validation error stays out of sample
-        diag_after = diagnose(self.train, preds_after["train"], o.noise_sd)
-        if o.leftover == "dynamics":
-            # on the training-only fit, so that the validation records are out of sample for the physics too
-            network = neural_leftover(trained_model, self.train, self.val or None, sim=trained_sim,
-                                      conditions=self.trend_values, progress=o.progress)
-        else:
-            network = residual_network(self.train, preds_after["train"], self.val or None,
-                                       preds_after["val"] or None)
-        nominal_effects = {e.name for e in initial.effects.values()}
-        final_effects = [e.name for e in model.effects.values()]
-        splits = self.splits
-        report = {
-            "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
-                       "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
-                       "parameters": _parameters(initial), "diagnostics": self.diag_before},
-            "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
-                      "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
-                      "parameters": _parameters(model), "diagnostics": diag_after},
-            "steps": [s.as_json() for s in self.steps], "rejected": [s.as_json() for s in self.rejected],
-            "removed": [c.as_json() for c in self.removed], "stopped": self.stopped,
-            "effects": {"nominal": sorted(nominal_effects), "final": final_effects,
-                        "keys": {key: e.name for key, e in model.effects.items()},  # each key's library name
-                        "added": [e for e in final_effects if e not in nominal_effects],
-                        "dropped": sorted(nominal_effects - set(final_effects))},
-            "unexplained": {"train_rmse": after["train"]["rmse"], "noise_sd": o.noise_sd,
-                            "dependence": diag_after["dependence"], "scale": diag_after["scale"],
-                            "whiteness": diag_after["whiteness"],
-                            "where": diag_after["where"], "residual_network": network,
-                            "structure_flagged": structure_flagged(network, after["train"]["rmse"], o.noise_sd)},
-            "settings": {"margin": o.margin, "criterion": o.criterion, "max_steps": o.max_steps, "top": o.top,
-                         "lm_steps": o.lm_steps, "candidates": list(o.candidates) if o.candidates else "library",
-                         "conditions": o.conditions if isinstance(o.conditions, bool) else list(o.conditions),
-                         "backend": o.backend, "method": o.method, "substeps": o.substeps,
-                         "substeps_final": final_sim["substeps"],
-                         "substeps_scored": {s: after[s]["substeps"] for s in splits if splits[s]},
-                         "leftover": o.leftover, "validation": o.validation, "cross_check": o.cross_check,
-                         "refit": bool(o.refit and self.val)},
-            "validation": {"kind": o.validation, "on": self.score.scored, "rmse_before": self.val0,
-                           "rmse_after": self.now.val, **parts(before=self.val0, after=self.now.val)},
-            "refit": refitted,
-            "noise": {**self.noise, "floor_share": self.rule.share, "sd_at_the_end": self.rule.noise},
-            "records": {s: [r.name for r in rs] for s, rs in splits.items()},
-            "wall_s": time.perf_counter() - self.start_time,
-        }
-        return DiscoveryResult(model=model, report=report, predictions={"before": preds_before, "after": preds_after},
-                               splits=splits, initial_model=initial, steps=list(self.steps),
-                               rejected=list(self.rejected), removed=list(self.removed))
-
-
-def _fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, bar) -> list:
-    """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``), ``workers`` at a
-    time; a candidate that cannot be simulated gets None."""
-    def one(cand):
-        try:
-            return fit_candidate(cand, model, train, sim, lm_steps, box_factor)
-        except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
-            return None
-
-    fits = side_by_side(one, cands, workers, lambda items, n: bar(items, "rank candidates", total=n))
-    return list(zip(cands, fits))
-
-
-def _prebuild(cands, model, controls: tuple[str, ...] = ()) -> None:
-    """Build the candidates' compiled loops at once (one compiler per core); a candidate that cannot be built is
-    left to its own fit, which skips it."""
-    built = []
-    for cand in cands:
-        try:
-            built.append(cand.build(model))
-        except (ValueError, RuntimeError):
-            continue
-    try:
-        prebuild_models(built, controls)
-    except (ValueError, RuntimeError):
-        pass
-
-
-def _refit_on(model, records, sim: dict, lm_steps: int, box_factor: float):
-    """A copy of ``model`` with every coordinate refitted on ``records`` (LM from its values); its settings."""
-    f = polish(copy.deepcopy(model), records, sim, lm_steps, box_factor)
-    return f.model, _at(sim, f)
+        """Refit the chosen structure, measure what is left and assemble the result (``finish.finish``)."""
+        return finish(self)

@@ -57,7 +57,7 @@ def check_discovery(result: DiscoveryResult, *, keep_going: bool = False, time_u
     result.report["diverged"] = _diverged_report(result)
     return check_finite(preds, names, times, splits=splits, keep_going=keep_going, time_unit=time_unit,
                         what="the discovered model's simulation", warn=warn,
-                        hint="raise discover.substeps, check the model's parameters or leave those records out")
+                        hint="raise simulation.substeps, check the model's parameters or leave those records out")
 
 
 def _fmt(v) -> str:

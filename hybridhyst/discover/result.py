@@ -10,7 +10,7 @@ import torch
 
 from .validation import parts
 
-__all__ = ["Change", "DiscoveryResult", "Step", "disagreement_line"]
+__all__ = ["Change", "DiscoveryResult", "Step", "disagreement_line", "parameter_values"]
 
 
 @dataclass
@@ -107,3 +107,9 @@ def disagreement_line(step: dict, unit: str = "") -> str | None:
             "the evidence disagrees, so the step may fit what the judged records share rather than what carries "
             "over to other conditions; " + ("the loop refused it (discover.cross_check=confirm)" if cross.get("refused")
                                             else "weigh the held-out error"))
+
+
+def parameter_values(model) -> dict:
+    """``{"effect.parameter": {"value", "unit"}}`` of ``model`` (functions as text), as discovery.json lists them."""
+    return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
+            for e, params in model.parameter_table().items() for p, info in params.items()}

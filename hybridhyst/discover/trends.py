@@ -17,6 +17,7 @@ import torch
 
 from ..analysis.loops import fit_trend
 from ..physics.parameters import Constant, ExpDecay, ExpGrowth, ExpRise, Linear, ParameterSpec, PerCondition
+from ..simulate import SimulationSettings
 from .fitting import Fit, polish
 
 __all__ = ["choose_trend", "fit_trends"]
@@ -72,7 +73,7 @@ def _free_constants(model):
             if isinstance(fn, Constant) and pname not in effect.start]
 
 
-def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_factor: float,
+def fit_trends(fit: Fit, train, sim: SimulationSettings, condition: str, lm_steps: int, box_factor: float,
                effects: set[str] | None = None):
     """Per-condition identification of every constant parameter (of the effects keyed in ``effects`` only, less
     their sign-smoothing widths, when given), then a trend per parameter; returns ``(Fit of the model with
@@ -90,7 +91,7 @@ def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_fa
         value = float(effect.params[pname].value.detach())
         effect.params[pname] = PerCondition(levels, value, condition, effect.param_specs[pname]).to(
             effect.params[pname].value.dtype)
-    per_fit = polish(per, train, {**sim, "substeps": fit.substeps}, lm_steps, box_factor)
+    per_fit = polish(per, train, sim.at(fit.substeps), lm_steps, box_factor)
     trended = fit.model.with_effects(dict(fit.model.effects.items()))
     chosen = {}
     for key, pname in params:
@@ -107,4 +108,4 @@ def fit_trends(fit: Fit, train, sim: dict, condition: str, lm_steps: int, box_fa
             effect.params[pname] = Constant(coef["value"], effect.param_specs[pname]).to(dtype)
     if all(kind == "constant" for kind in chosen.values()):
         return None, chosen
-    return polish(trended, train, {**sim, "substeps": per_fit.substeps}, lm_steps, box_factor), chosen
+    return polish(trended, train, sim.at(per_fit.substeps), lm_steps, box_factor), chosen

@@ -35,7 +35,7 @@ import torch
 
 from ..analysis.metrics import split_metrics
 from ..data.records import Record
-from ..simulate import simulate, simulate_resolved
+from ..simulate import SimulationSettings, simulate, simulate_resolved
 from .fitting import polish
 
 __all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "errors", "improves", "parts", "predict",
@@ -84,25 +84,23 @@ def within(new, old, tol: float) -> bool:
     return all(n <= (1 + tol) * o for n, o in zip(errors(new), errors(old), strict=True))
 
 
-def simulated(model, records, sim: dict, resolve: bool = True) -> tuple[list[np.ndarray], int]:
+def simulated(model, records, sim: SimulationSettings, resolve: bool = True) -> tuple[list[np.ndarray], int]:
     """The model's response to each record (first output channel) and the sub-steps it took: ``sim``'s
     (the fit's, resolved on its training records) or more, where these records need finer steps
     (``simulate.simulate_resolved``: a held-out condition may make a state stiffer than any training one).
     ``resolve=False``: at ``sim``'s sub-steps (the records the model was fitted and resolved on: its training
     error is then the fit's own)."""
     if not records:
-        return [], int(sim["substeps"])
+        return [], sim.substeps
     if not resolve:
         with torch.no_grad():
-            out = simulate(model, list(records), method=sim["method"], substeps=sim["substeps"],
-                           backend=sim["backend"])
-        return [o[:, 0].numpy() for o in out], int(sim["substeps"])
-    out, substeps, _ = simulate_resolved(model, list(records), substeps=sim["substeps"], method=sim["method"],
-                                         backend=sim["backend"])
+            out = simulate(model, list(records), settings=sim)
+        return [o[:, 0].numpy() for o in out], sim.substeps
+    out, substeps, _ = simulate_resolved(model, list(records), settings=sim)
     return [o[:, 0].numpy() for o in out], substeps
 
 
-def predict(model, records, sim: dict, resolve: bool = True) -> list[np.ndarray]:
+def predict(model, records, sim: SimulationSettings, resolve: bool = True) -> list[np.ndarray]:
     """The model's response to each record (first output channel), at the sub-steps they need (``simulated``)."""
     return simulated(model, records, sim, resolve)[0]
 
@@ -118,7 +116,7 @@ def record_metrics(records, preds, labels: Sequence[str] | None = None) -> dict:
     return out
 
 
-def rmse_on(model, records, sim: dict, resolve: bool = True) -> float:
+def rmse_on(model, records, sim: SimulationSettings, resolve: bool = True) -> float:
     """The model's pooled RMSE on ``records`` (inf without records; ``resolve`` as in ``simulated``)."""
     if not records:
         return math.inf
@@ -172,14 +170,14 @@ class Validation:
             return records + (" (one training operating point: nothing to leave out)" if self.kind == "both" else "")
         return f"{records} and, each on its own, {loco}"
 
-    def __call__(self, model, sim: dict) -> Score:
+    def __call__(self, model, sim: SimulationSettings) -> Score:
         if self.kind == "loco":
             return Score({"loco": self._loco(model, sim, list(self.val))})
         # "both" has groups unless it fell back; without validation records, the training error the fit resolved
         records = {"records": rmse_on(model, self.val or self.train, sim, resolve=bool(self.val))}
         return Score({**records, "loco": self._loco(model, sim, [])} if self.groups else records)
 
-    def _loco(self, model, sim: dict, val: list) -> float:
+    def _loco(self, model, sim: SimulationSettings, val: list) -> float:
         """The pooled RMSE of each training group predicted by the model refitted on the others, and of ``val``
         predicted by the model itself."""
         records, preds = list(val), predict(model, val, sim)

@@ -22,7 +22,8 @@ from ..data.records import Record, RecordSet
 from ..optim import line_search_loss
 from ..physics.parameters import project_to_bounds
 from ..progress import progress as progress_bar
-from ..simulate import resolved_substeps, simulate
+from ..simulate import SimulationSettings, resolved_substeps, simulate
+from ..simulate.api import REFERENCE
 
 __all__ = ["FitResult", "fit_gradient", "record_loss"]
 
@@ -199,9 +200,9 @@ def _run_lbfgs(obj: _Objective, iters: int, progress: bool, history: list[float]
 
 def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record], *, steps: int = 100,
                  lr: float = 0.05, downsample: int | Mapping[str, int] = 1, loss: str = "mse",
-                 lbfgs_steps: int = 0, progress: bool = True, method: str = "rk4", substeps: int = 1,
-                 backend: str = "reference", input_channels: tuple[str, ...] = ("x",), resolve: bool = False,
-                 max_substeps: int = 16) -> FitResult:
+                 lbfgs_steps: int = 0, progress: bool = True, simulation: SimulationSettings | None = None,
+                 input_channels: tuple[str, ...] = ("x",), resolve: bool = False, max_substeps: int = 16,
+                 **overrides) -> FitResult:
     """Fit every trainable parameter of ``model`` to ``records`` by gradient descent through ``simulate``.
 
     Parameters
@@ -217,10 +218,12 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     loss : ``"mse"`` or ``"mae"``, pooled over all samples.
     lbfgs_steps : L-BFGS iterations after Adam (strong-Wolfe line search; 0 to skip).
     progress : show tqdm progress bars.
-    method, substeps, backend : fixed-step scheme and backend ("reference" or "fast") passed to ``simulate``.
+    simulation : how the model is simulated (``SimulationSettings``; default the reference backend, RK4, one
+        sub-step); ``overrides`` (method, substeps, backend) are laid over it.
     resolve : choose the sub-steps per sample by step doubling (``simulate.resolved_substeps``, from
-        ``substeps`` up to ``max_substeps``) before fitting, and again after it: a fitted model that needs finer
-        steps than it was fitted with (its loops got sharper) is fitted on from there at the finer step.
+        ``simulation.substeps`` up to ``max_substeps``) before fitting, and again after it: a fitted model that
+        needs finer steps than it was fitted with (its loops got sharper) is fitted on from there at the finer
+        step.
 
     Returns
     -------
@@ -238,16 +241,18 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
     data = decimate_all(records, downsample, "gradient fitting")
-    sim_kwargs = {"method": method, "input_channels": tuple(input_channels), "backend": backend}
+    sim = SimulationSettings.of(simulation, REFERENCE.replace(method="rk4"), **overrides)
+    channels = tuple(input_channels)
 
     def resolved(at: int, refit=None) -> tuple[int, float]:
-        return resolved_substeps(model, data, substeps=at, max_substeps=max_substeps, refit=refit, **sim_kwargs)
+        return resolved_substeps(model, data, settings=sim, substeps=at, max_substeps=max_substeps, refit=refit,
+                                 input_channels=channels)
 
     history: list[float] = []
     done = {"adam": 0, "lbfgs": 0, "evaluations": 0, "stop": None, "best": math.inf}
 
     def fit_at(s: int) -> None:  # Adam then L-BFGS at s sub-steps per sample, from the model's current values
-        obj = _Objective(model, data, loss, {**sim_kwargs, "substeps": s})
+        obj = _Objective(model, data, loss, {"settings": sim.at(s), "input_channels": channels})
         done["adam"] += _run_adam(obj, steps, lr, progress, history) if steps else 0
         if lbfgs_steps:
             n, done["stop"] = _run_lbfgs(obj, lbfgs_steps, progress, history)
@@ -258,7 +263,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         done["evaluations"] += obj.evaluations
         done["best"] = obj.best
 
-    substeps, resolution = resolved(substeps) if resolve else (int(substeps), math.nan)
+    substeps, resolution = resolved(sim.substeps) if resolve else (sim.substeps, math.nan)
     fit_at(substeps)
     if resolve:  # a fitted model that needs finer steps than it was fitted with is fitted on at the finer step
         substeps, resolution = resolved(substeps, refit=fit_at)

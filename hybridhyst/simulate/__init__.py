@@ -6,5 +6,7 @@ from .api import simulate as simulate
 from .api import simulate_jacobian as simulate_jacobian
 from .api import simulate_resolved as simulate_resolved
 from .fixed import ORDER as ORDER
+from .settings import SimulationSettings as SimulationSettings
 
-__all__ = ["ORDER", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
+__all__ = ["ORDER", "SimulationSettings", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian",
+           "simulate_resolved"]

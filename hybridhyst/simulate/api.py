@@ -15,8 +15,12 @@ from ..physics.effects.base import signals
 from .adaptive import integrate_adaptive
 from .fixed import integrate_fixed
 from .inputs import delayed, input_sample, with_controls, with_rates
+from .settings import SimulationSettings
 
-__all__ = ["jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
+__all__ = ["REFERENCE", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
+
+# simulate()'s settings where none are given: the plain PyTorch loop (the oracle), the solver's default scheme
+REFERENCE = SimulationSettings(method=None, backend="reference")
 
 RESOLVED = 1e-3  # relative RMS change of the response under halved steps below which it counts as resolved
 MAX_SUBSTEPS_SCORED = 64  # simulate_resolved's cap: scoring costs one simulation per doubling, a fit hundreds
@@ -100,10 +104,10 @@ def _simulate_records(model, records, input_channels, **kwargs) -> list[torch.Te
 
 
 def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None, initial_state=None,
-             method: str | None = None, substeps: int = 1, solver: str = "fixed", rtol: float = 1e-7,
-             atol: float = 1e-9, adjoint: bool = False, options: dict | None = None,
-             return_states: bool = False, input_channels: tuple[str, ...] = ("x",), values=None,
-             backend: str = "reference"):
+             settings: SimulationSettings | None = None, method: str | None = None, substeps: int | None = None,
+             solver: str | None = None, rtol: float | None = None, atol: float | None = None,
+             backend: str | None = None, adjoint: bool = False, options: dict | None = None,
+             return_states: bool = False, input_channels: tuple[str, ...] = ("x",), values=None):
     """Integrate ``model`` along an input history.
 
     Parameters
@@ -120,6 +124,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
         control channel sampled with the input (``Record.controls``): it is interpolated inside the sample
         intervals like the input, and a parameter function of it is evaluated at every stage.
     initial_state : ``(batch, 2)`` initial [x, ẋ] of an oscillator, or the full ``(batch, state_dim)``.
+    settings : how to integrate (``SimulationSettings``: scheme, sub-steps, backend, solver, tolerances, device);
+        default ``REFERENCE`` (the plain PyTorch loop). The keyword arguments below, where given, override it.
     method, substeps : fixed-step explicit scheme ("euler", "heun", "midpoint", "rk4"; default "rk4") and
         sub-steps per sample interval (``solver="fixed"``); for ``solver="torchdiffeq"`` the torchdiffeq
         method (default "dopri5") with ``rtol``, ``atol``, ``options`` and ``adjoint``. The input is
@@ -143,12 +149,15 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
                                                     and isinstance(inputs[0], Record)):
         if return_states:
             raise ValueError("return_states is not available when simulating records; pass tensors instead")
-        return _simulate_records(model, inputs, input_channels, initial_state=initial_state, method=method,
-                                 substeps=substeps, solver=solver, rtol=rtol, atol=atol, adjoint=adjoint,
-                                 options=options, backend=backend)
+        return _simulate_records(model, inputs, input_channels, initial_state=initial_state, settings=settings,
+                                 method=method, substeps=substeps, solver=solver, rtol=rtol, atol=atol,
+                                 adjoint=adjoint, options=options, backend=backend)
 
+    sim = SimulationSettings.of(settings, REFERENCE, method=method, substeps=substeps, solver=solver, rtol=rtol,
+                                atol=atol, backend=backend)
+    method, substeps, solver, backend = sim.method, sim.substeps, sim.solver, sim.backend
     dtype = _model_dtype(model)
-    u, t = _prepare(inputs, t, dt, dtype)
+    u, t = _prepare(inputs, t, dt, dtype, sim.device)
     B = u.shape[0]
     cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
     P = model.evaluate(cond, B) if values is None else _check_values(model, values, B, cond)
@@ -159,11 +168,7 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
     U, controls = with_controls(U, cond)
     state0 = _initial_state(model, P, B, initial_state, dtype, u.device, _first(cond, controls))
 
-    if backend not in ("reference", "fast"):
-        raise ValueError(f"unknown backend {backend!r}; choose 'reference' or 'fast'")
     if backend == "fast":
-        if solver != "fixed":
-            raise ValueError("backend='fast' runs the fixed-step solver only; use solver='fixed'")
         from .fast import simulate_fast
 
         return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
@@ -179,10 +184,8 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
                              "use solver='fixed'")
         if values is not None:
             raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
-        states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=rtol, atol=atol,
-                                    adjoint=adjoint, options=options, controls=controls)
-    else:
-        raise ValueError(f"unknown solver {solver!r}; choose 'fixed' or 'torchdiffeq'")
+        states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=sim.rtol,
+                                    atol=sim.atol, adjoint=adjoint, options=options, controls=controls)
     y = _outputs(model, states, U, P, controls)
     return (y, states) if return_states else y
 
@@ -209,7 +212,8 @@ def dual_level():
 
 
 def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None = None, conditions=None,
-                      method: str | None = None, substeps: int = 1):
+                      settings: SimulationSettings | None = None, method: str | None = None,
+                      substeps: int | None = None):
     """Responses and their derivatives w.r.t. every parameter value in one compiled pass (forward
     sensitivities).
 
@@ -223,8 +227,10 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     """
     from .fast.function import compiled, tangent_fast
 
+    sim = SimulationSettings.of(settings, method=method, substeps=substeps)
+    method, substeps = sim.method, sim.substeps
     dtype = _model_dtype(model)
-    u, t = _prepare(inputs, t, dt, dtype)
+    u, t = _prepare(inputs, t, dt, dtype, sim.device)
     B = u.shape[0]
     cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
     P = _check_values(model, values, B, cond)
@@ -253,9 +259,10 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     return y, dy, keys
 
 
-def _prepare(inputs, t, dt, dtype):
-    """Validated input ``(batch, time, C)`` and time grid ``(time,)`` or ``(batch, time)``."""
-    u = torch.as_tensor(inputs, dtype=dtype)
+def _prepare(inputs, t, dt, dtype, device=None):
+    """Validated input ``(batch, time, C)`` and time grid ``(time,)`` or ``(batch, time)`` (on ``device``
+    where given)."""
+    u = torch.as_tensor(inputs, dtype=dtype, device=device)
     if u.ndim == 2:
         u = u[..., None]
     if u.ndim != 3:
@@ -311,7 +318,7 @@ def _outputs(model, states, U, P, controls=()):
     return y.reshape(B, T, -1)
 
 
-def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 16, tol: float = RESOLVED,
+def resolved_substeps(model, records, *, substeps: int | None = None, max_substeps: int = 16, tol: float = RESOLVED,
                       refit: Callable[[int], None] | None = None, outputs: dict | None = None,
                       **kwargs) -> tuple[int, float]:
     """Step doubling: the fewest sub-steps per sample, from ``substeps`` up to ``max_substeps``, at which halving
@@ -323,7 +330,8 @@ def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 
     model needs finer steps than it was fitted with, and the check repeated, since the refitted loops may be
     sharper still. ``outputs``, where given, receives ``{sub-steps: simulate's outputs}`` of the last
     simulation at each sub-step count (``simulate_resolved`` keeps the one it returns). ``kwargs`` go to
-    ``simulate`` (method, backend, input_channels). Returns ``(substeps, change)``: the change at the returned
+    ``simulate`` (settings, method, backend, input_channels); ``substeps`` defaults to ``settings.substeps``.
+    Returns ``(substeps, change)``: the change at the returned
     sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
     """
     def response(s: int) -> torch.Tensor:
@@ -345,6 +353,8 @@ def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 
                 return s, change
             s, coarse = 2 * s, fine
 
+    if substeps is None:
+        substeps = kwargs["settings"].substeps if kwargs.get("settings") is not None else 1
     at = max(int(substeps), 1)
     s, change = doubled(at)
     while refit is not None and s != at:
@@ -354,7 +364,7 @@ def resolved_substeps(model, records, *, substeps: int = 1, max_substeps: int = 
     return s, change
 
 
-def simulate_resolved(model, records, *, substeps: int = 1, max_substeps: int = MAX_SUBSTEPS_SCORED,
+def simulate_resolved(model, records, *, substeps: int | None = None, max_substeps: int = MAX_SUBSTEPS_SCORED,
                       tol: float = RESOLVED, **kwargs) -> tuple[list[torch.Tensor], int, float]:
     """``records`` simulated at the sub-steps *they* need: step doubling (``resolved_substeps``) from
     ``substeps``, usually the ones the model was fitted and resolved with, up to ``max_substeps``.

@@ -16,11 +16,11 @@ from collections.abc import Callable
 from .output import StudyOutput as StudyOutput
 
 STUDIES: dict[str, str] = {
-    "seed000_pinn_identification": "seed000:pinn_identification",
-    "seed001_vpptd_dynamics": "seed001:vpptd_dynamics",
-    "seed002_loop_metrics": "seed002:loop_metrics",
-    "seed003_hybrid_pinn_piezo": "seed003:hybrid_pinn_piezo",
-    "seed004_symmetric_damper": "seed004:symmetric_damper",
+    "vpptd_pinn_identification": "seed000:pinn_identification",
+    "vpptd_dynamics": "seed001:vpptd_dynamics",
+    "vpptd_loop_metrics": "seed002:loop_metrics",
+    "piezo_hybrid_pinn": "seed003:hybrid_pinn_piezo",
+    "symmetric_damper": "seed004:symmetric_damper",
 }
 
 

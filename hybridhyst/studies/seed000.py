@@ -69,7 +69,7 @@ def softplus_model() -> torch.nn.Module:
 
 
 def _options(options: dict) -> dict:
-    opts = resolve_options(options, REQUIRED, "seed000_pinn_identification")
+    opts = resolve_options(options, REQUIRED, "vpptd_pinn_identification")
     if int(opts["epochs"]) < 1 or float(opts["lr"]) <= 0:
         raise ValueError(f"seed000 study: need epochs >= 1 and lr > 0, got {opts['epochs']} and {opts['lr']}")
     bad = [e for e in opts["snapshot_epochs"] if not 1 <= int(e) <= int(opts["epochs"])]
@@ -131,7 +131,7 @@ def _identify(record, opts: dict, seed: int) -> dict:
     cfg = opts["identify"]
     bounds = {f"{e}.{p}": tuple(cfg["bounds"][name]) for name, (e, p) in PARAMS.items()}
     model = softplus_model()
-    res = identify(model, record, method=cfg["method"], pop=int(cfg["pop"]), generations=int(cfg["generations"]),
+    res = identify(model, record, search=cfg["search"], pop=int(cfg["pop"]), generations=int(cfg["generations"]),
                    rounds=int(cfg["rounds"]), bounds=bounds, fisher=False, seed=seed, progress=False)
     return {"model": model, "wall_s": res.wall_s, "simulated": res.evaluations}
 
@@ -197,7 +197,7 @@ def _milestones(pressures, pinn, epochs) -> pd.DataFrame:
 
 
 def pinn_identification(options: dict, out: StudyOutput) -> dict:
-    """Run the study (options: ``conf/experiment/seed000_pinn_identification.yaml``); returns the summary."""
+    """Run the study (options: ``conf/experiment/vpptd_pinn_identification.yaml``); returns the summary."""
     opts = _options(options)
     pressures = [float(p) for p in opts["pressures"]]
     records = load_vpptd(mixtures=[opts["mixture"]], pressures=pressures, cycles=int(opts["cycles"]),

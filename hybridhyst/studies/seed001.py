@@ -48,7 +48,7 @@ COMBINATIONS = {"elastic_k": "αk", "hysteretic_k0": "(1−α)kA", "hysteretic_t
 
 
 def _options(options: dict) -> dict:
-    opts = resolve_options(options, REQUIRED, "seed001_vpptd_dynamics")
+    opts = resolve_options(options, REQUIRED, "vpptd_dynamics")
     unknown = [m for m in opts["mixtures"] if m not in MIXTURES]
     if unknown or not opts["mixtures"]:
         raise ValueError(f"seed001 study: mixtures {unknown or '[]'} invalid; choose from {list(MIXTURES)}")
@@ -74,7 +74,8 @@ def _start_model(box: dict, sign_free=()):
     The parameters named in ``sign_free`` (Table 1's names) are declared real-valued on this model: their
     effect's domain (the viscous c ≥ 0) would otherwise make every search member with a negative value at a
     fitted pressure simulate nothing (``SearchSpace.values``), and Table 1 prints c < 0 for ABS at every p
-    (README "Paper inconsistencies"): the identification could not reach the law that made the data.
+    (experiments/vpptd_dynamics/README.md, "Readings of the paper"): the identification could not reach the
+    law that made the data.
     """
     centres = {k: [0.5 * (float(lo) + float(hi)) for lo, hi in v] for k, v in box.items()}
     model = modified_bouc_wen(coefficients=centres).double()

@@ -65,7 +65,7 @@ TABLE2 = {"gamma": (24.01, 12.88, 11.00, 10.98, 9.00, 9.05, 9.04, 10.43, 10.82, 
 
 
 def _options(options: dict) -> dict:
-    opts = resolve_options(options, REQUIRED, "seed002_loop_metrics")
+    opts = resolve_options(options, REQUIRED, "vpptd_loop_metrics")
     p = [float(v) for v in opts["pressures"]]
     if len(p) < 4 or len(set(p)) != len(p) or any(not 0.0 <= v <= 0.1 for v in p):
         raise ValueError(f"seed002 study: pressures {p} must be at least 4 distinct underpressures in [0, 0.1] MPa "

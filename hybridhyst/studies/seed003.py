@@ -8,7 +8,7 @@ with Gaussian sensor noise; seed 003's Table 4 voltage–frequency cases are hel
 
 Protocol (seed 003 Secs. 3–4): differential evolution + Levenberg–Marquardt (``hybridhyst.identify``)
 identifies the nominal on training sweeps; every network is then a ``hybridhyst-train`` run, launched as Hydra
-multiruns over ``conf/experiment/seed003_hybrid_pinn_piezo_training.yaml`` and ``conf/sweep/*.yaml`` and read
+multiruns over ``conf/experiment/piezo_hybrid_pinn_training.yaml`` and ``conf/sweep/*.yaml`` and read
 back with ``hybridhyst.report.collect`` (``seed003_runs``). The Hybrid-PINN is ``HybridModule`` (the identified,
 frozen nominal + a parallel tanh MLP residual with a zero-initialised last layer, data MSE + λ_phys ×
 equation-of-motion residual); the baselines are the data-only MLP and LSTM, the standard PINN and the
@@ -55,7 +55,7 @@ _REQUIRED = ("amplitudes_v", "frequencies_hz", "val_cases", "test_cases", "cycle
 
 def _settings(options: dict) -> dict:
     """The experiment's options, with ``reduced_options`` applied when ``reduced``; checked."""
-    o = resolve_options(options, _REQUIRED, "seed003_hybrid_pinn_piezo")
+    o = resolve_options(options, _REQUIRED, "piezo_hybrid_pinn")
     cases = [(float(a), float(f)) for a in o["amplitudes_v"] for f in o["frequencies_hz"]]
     bad = [c for c in cases + case_pairs(o["val_cases"]) + case_pairs(o["test_cases"])
            if not (0 < c[0] <= 100 and 0.1 <= c[1] <= 50)]

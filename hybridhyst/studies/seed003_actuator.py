@@ -15,7 +15,7 @@ from ..identify import identify
 from ..physics.compositions import piezo_attenuation
 from ..physics.compositions.seed003 import TABLE1, UM
 from ..physics.parameters import Fixed
-from ..simulate import simulate
+from ..simulate import SimulationSettings, simulate
 
 __all__ = ["HELD", "id_summary", "identification_table", "identify_nominal", "paper_parameters", "rate_figure",
            "sample_times", "sweep_records", "true_actuator"]
@@ -112,9 +112,10 @@ def identify_nominal(records, sigma: float, o: dict, progress: bool):
     """Differential evolution + Levenberg–Marquardt of the nominal's coordinates not in ``HELD`` on ``records``
     (box: Table 1 value / box_factor … × box_factor). Returns the ``IdentificationResult``."""
     model = _hold(piezo_attenuation({"sigma": sigma}).double(), HELD)
-    return identify(model, records, method="de", pop=o["pop"], generations=o["generations"], rounds=1,
+    return identify(model, records, search="de", pop=o["pop"], generations=o["generations"], rounds=1,
                     refine="lm", restarts=o["restarts"], lm_steps=o["lm_steps"], box_factor=o["box_factor"],
-                    substeps=o["substeps"], seed=o["seed"], progress=progress, fisher=False)
+                    simulation=SimulationSettings(substeps=o["substeps"]), seed=o["seed"], progress=progress,
+                    fisher=False)
 
 
 def id_summary(res) -> dict:

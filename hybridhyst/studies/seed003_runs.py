@@ -1,6 +1,6 @@
 """Seed 003's Lightning runs: Hydra multiruns of ``hybridhyst-train``, read back with ``hybridhyst.report.collect``.
 
-Every run is ``hybridhyst-train`` with ``conf/experiment/seed003_hybrid_pinn_piezo_training.yaml``, a baseline
+Every run is ``hybridhyst-train`` with ``conf/experiment/piezo_hybrid_pinn_training.yaml``, a baseline
 preset and one of ``conf/sweep/*.yaml`` (``lambda_phys``, ``architectures``, ``data_fraction``), the swept values
 and the training settings coming from the study's options. The study launches each multirun as a process of its
 own (``python -m hybridhyst.cli.train -m ...``; studies do not import the apps) into one sweep folder, where a
@@ -27,7 +27,7 @@ from ..report.collect import collect_runs
 
 __all__ = ["EXPERIMENT", "TrainingRuns", "sweep_values", "write_sweeps"]
 
-EXPERIMENT = "seed003_hybrid_pinn_piezo_training"
+EXPERIMENT = "piezo_hybrid_pinn_training"
 # the study's model kinds: the baseline preset (conf/baseline) each is trained with, and its name in metrics.json
 BASELINES = {"hybrid": "hybrid_mlp", "mlp": "mlp", "lstm": "lstm", "std_pinn": "std_pinn",
              "hybrid_dynamics": "hybrid_dynamics"}

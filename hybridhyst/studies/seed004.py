@@ -41,7 +41,7 @@ PAPER_RMS = {0.02: 0.01, 0.04: 0.006, 0.06: 0.0085, 0.08: 0.01}
 
 
 def _options(options: dict) -> dict:
-    opts = resolve_options(options, REQUIRED, "seed004_symmetric_damper")
+    opts = resolve_options(options, REQUIRED, "symmetric_damper")
     if set(opts["grid"]) != set(SHAPE) or any(len(v) < 2 for v in opts["grid"].values()):
         raise ValueError(f"seed004 study: grid must list at least two levels for each of {list(SHAPE)}")
     for case in opts["cases"]:

@@ -15,7 +15,7 @@ from ..data.datamodule import Normaliser
 from ..nets import build_net, count_parameters
 from ..optim import line_search_loss
 from ..physics.models import DrivenOscillator
-from ..simulate import simulate
+from ..simulate import SimulationSettings, simulate
 from .losses import data_loss
 
 __all__ = ["LR_SCHEDULES", "SequenceModule", "NominalMixin", "InputSampleOf", "cosine_factor", "load_nominal_state",
@@ -315,7 +315,7 @@ class NominalMixin:
 
     def _setup_nominal(self, nominal, backend: str, method: str, substeps: int, trainable: bool):
         self.nominal = nominal
-        self.sim = {"backend": backend, "method": method, "substeps": int(substeps)}
+        self.sim = SimulationSettings(method=method, substeps=int(substeps), backend=backend)
         for p in self.nominal.parameters():
             p.requires_grad_(bool(trainable))
 
@@ -360,7 +360,7 @@ class NominalMixin:
         U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
         with torch.no_grad():
             _, states = simulate(model, U, t=t, conditions=self.conditions(batch), initial_state=s0,
-                                 return_states=True, **self.sim)
+                                 return_states=True, settings=self.sim)
         sd = states.reshape(-1, states.shape[-1]).std(0)
         self.state_scale.copy_(torch.where(torch.isfinite(sd) & (sd > 1e-12), sd, torch.ones_like(sd)))
 
@@ -371,7 +371,7 @@ class NominalMixin:
         U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
         model = self.nominal if model is None else model
         res = simulate(model, U, t=t, conditions=self.conditions(batch),
-                       initial_state=self._initial_state(batch, model), return_states=return_states, **self.sim)
+                       initial_state=self._initial_state(batch, model), return_states=return_states, settings=self.sim)
         return (res[0][..., 0], res[1]) if return_states else res[..., 0]
 
     def nominal_values(self) -> dict[str, float]:

@@ -17,6 +17,7 @@ from omegaconf import DictConfig
 
 from ..data.datamodule import RecordDataModule
 from ..nets import parse_hidden
+from ..simulate import SimulationSettings
 from .callbacks import LoopFigures
 from .config import check_kwargs, check_model_data, config_number, instantiate, load_records, split_options, to_plain
 from .modules import MODULES, load_nominal_state
@@ -81,7 +82,8 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
               "nominal_lr": cfg.trainer.get("nominal_lr"), "normalise_loss": bool(loss.get("normalise", True)),
               "lambda_phys": float(loss.lambda_phys), "lr_schedule": str(cfg.trainer.lr_schedule),
               "lr_final_ratio": float(cfg.trainer.lr_final_ratio)}
-    sim = {"backend": cfg.simulation.backend, "method": cfg.simulation.method, "substeps": int(cfg.simulation.substeps)}
+    simulation = SimulationSettings.from_config(cfg.simulation)  # a LightningModule's hyperparameters: plain values
+    sim = {"method": simulation.method, "substeps": simulation.substeps, "backend": simulation.backend}
     encoder = {"encoder_past": encoder_past(cfg), "encoder_hidden": (cfg.get("encoder") or {}).get("hidden", "2x32")}
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
@@ -102,11 +104,11 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
                                  "directory of this model, or the model config that run wrote (model=...)") from None
         identified, start = None, nominal_start(cfg)
         if start not in ("nominal_state", "init_noise", "identify", "model"):
-            raise ValueError(f"unknown nominal_init.method {start!r}; choose 'identify' or 'none'")
+            raise ValueError(f"unknown nominal_init.start {start!r}; choose 'identify' or 'none'")
         if start == "identify" and not cfg.get("ckpt_path"):  # resuming: the checkpoint has them
             if identify is None:
-                raise ValueError("nominal_init.method=identify needs an identification step: build_module(cfg, dm, "
-                                 "identify=hybridhyst.cli.train.identify_nominal), or nominal_init.method=none")
+                raise ValueError("nominal_init.start=identify needs an identification step: build_module(cfg, dm, "
+                                 "identify=hybridhyst.cli.train.identify_nominal), or nominal_init.start=none")
             identified = identify(cfg, dm, nominal)
     if kind == "physics":
         module = MODULES[kind](nominal, init_noise=loss.get("init_noise"), prior_weight=float(loss.prior_weight),
@@ -136,7 +138,7 @@ def dynamics_inputs(cfg: DictConfig) -> dict:
 
 def nominal_start(cfg: DictConfig) -> str | None:
     """Where the nominal of ``cfg.module`` starts: ``"nominal_state"`` (a given state dict), ``"init_noise"``
-    (the physics module's seed 000 re-initialisation near zero), ``"identify"`` (``nominal_init.method``:
+    (the physics module's seed 000 re-initialisation near zero), ``"identify"`` (``nominal_init.start``:
     batched identification on the training records) or ``"model"`` (the model config's values); None for
     modules without a nominal."""
     if cfg.module not in NOMINAL_MODULES:
@@ -145,8 +147,8 @@ def nominal_start(cfg: DictConfig) -> str | None:
         return "nominal_state"
     if cfg.module == "physics" and cfg.loss.get("init_noise"):
         return "init_noise"
-    method = str((cfg.get("nominal_init") or {}).get("method") or "none")
-    return "model" if method == "none" else method  # build_module refuses an unknown method
+    start = str((cfg.get("nominal_init") or {}).get("start") or "none")
+    return "model" if start == "none" else start  # build_module refuses an unknown start
 
 
 def lbfgs_settings(cfg: DictConfig) -> dict | None:

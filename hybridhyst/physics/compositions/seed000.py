@@ -18,7 +18,7 @@ from ..models import Constitutive
 # Values quoted in the text (Results, Fig. 8 discussion) for the two ends of the pressure range. The upper
 # end gathers values the text quotes at different pressures (c = 8.3 at 0.07 MPa, k = 1.65 and M_s = 15 at
 # 0.08 MPa; k₂ = 0.0055 is its low value, 0.0145 is quoted at 0.09 MPa): a peak-torque check, not a table
-# (experiments/seed000_pinn_identification compares each value at the pressure it is quoted at).
+# (experiments/vpptd_pinn_identification compares each value at the pressure it is quoted at).
 # k₂ at 0.01 MPa is not quoted; 0.0055 Nm/deg³ is the low end of its quoted range.
 SEED000_QUOTED = {
     0.01: dict(c=6.7, k=0.65, k2=0.0055, Ms=9.5),

@@ -9,7 +9,7 @@ three ways:
   (backlash/play operator) or ``input_delay`` shifts the time at which the input is read (time delay);
 * an added mass ``added_mass`` (inertia).
 
-Effects never loop over time (STYLE rule 4): they return rates and forces for one instant, batched as
+Effects never loop over time: they return rates and forces for one instant, batched as
 ``(batch,)`` tensors; ``hybridhyst.simulate`` integrates.
 """
 

@@ -64,7 +64,7 @@ class Constant(ParameterFunction):
 
 
 class Fixed(ParameterFunction):
-    """A constant that is not trained (a buffer, per STYLE rule 3); it has no coordinates."""
+    """A constant that is not trained (a buffer); it has no coordinates."""
 
     def __init__(self, value: float):
         super().__init__()
@@ -317,7 +317,7 @@ def build_function(value, spec: ParameterSpec | None = None) -> ParameterFunctio
 
     ``value`` is a number (a ``Constant`` with the spec's constraint), an existing ``ParameterFunction``,
     or a mapping ``{"kind": "linear", "slope": ..., "intercept": ..., "condition": "pressure_mpa"}``
-    (kinds: constant, linear, polynomial, exp_rise, exp_decay, exp_growth, per_condition, neural).
+    (kinds: constant, fixed, linear, polynomial, exp_rise, exp_decay, exp_growth, per_condition, neural).
     """
     if isinstance(value, ParameterFunction):
         return value

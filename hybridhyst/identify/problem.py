@@ -1,0 +1,137 @@
+"""``RecordsProblem``: records grouped by time grid, with batched predictions, costs and exact Jacobians of a
+``SearchSpace``'s population (what every search and refinement of ``identify`` evaluates)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import torch
+import torch.autograd.forward_ad as fwAD
+
+from ..data.batch import record_batches
+from ..data.records import Record
+from ..simulate import SimulationSettings, jacobian_covers, simulate, simulate_jacobian
+from ..simulate.api import dual_level
+from ..simulate.inputs import with_rates
+from .search import safe_costs
+from .space import SearchSpace
+
+__all__ = ["RecordsProblem", "culprits"]
+
+
+class RecordsProblem:
+    """Records grouped by length (``data.batch``: every record on its own time grid), with batched
+    predictions and costs for a ``SearchSpace``.
+
+    Parameters
+    ----------
+    space : the model's search space; records : the data; input_channels : channels driving the model.
+    settings : how the model is simulated (default ``SimulationSettings()``: compiled, RK4, one sub-step);
+        ``method``, ``substeps``, ``backend`` where given override it.
+    """
+
+    def __init__(self, space: SearchSpace, records: Sequence[Record], input_channels=("x",),
+                 settings: SimulationSettings | None = None, *, method: str | None = None,
+                 substeps: int | None = None, backend: str | None = None):
+        self.space, self.records = space, list(records)
+        self.sim = SimulationSettings.of(settings, method=method, substeps=substeps, backend=backend)
+        dtype = next(iter(space.model.parameters()), torch.zeros((), dtype=torch.float64)).dtype
+        # the input rates once (finite differences), not at every cost evaluation
+        self.groups = [(b.index, b.t, with_rates(b.inputs, b.t), b.y, b.conditions)
+                       for b in record_batches(self.records, input_channels, dtype)]
+        self.n_samples = sum(len(r) for r in self.records)
+        self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
+
+    def _batch(self, X: torch.Tensor, group) -> dict:
+        """The simulation arguments of one time-grid group for the population ``X (N, D)``: member n at record
+        r is batch row n·R + r, with its parameter values at record r's conditions."""
+        _, t, U, _, cond = group
+        N, R = X.shape[0], U.shape[0]
+        return {"inputs": U.repeat(N, 1, 1), "t": t.repeat(N, 1), "values": self.space.values(X.to(U.dtype), cond, R),
+                "conditions": {k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()} or None}  # networks,
+        # controls
+
+    def predict_groups(self, X: torch.Tensor) -> list[torch.Tensor]:
+        """Responses ``(N, R_g, T_g)`` of each time-grid group for the population ``X (N, D)``."""
+        out = []
+        for group in self.groups:
+            y = simulate(self.space.model, **self._batch(X, group), settings=self.sim)
+            out.append(y[..., 0].reshape(X.shape[0], group[2].shape[0], -1))
+        return out
+
+    def predict(self, X: torch.Tensor) -> torch.Tensor:
+        """All responses flattened, ``(N, M)`` with M the total number of samples."""
+        return torch.cat([p.reshape(p.shape[0], -1) for p in self.predict_groups(X)], dim=1)
+
+    def record_mse(self, X: torch.Tensor) -> torch.Tensor:
+        """Mean squared error ``(N, records)``, columns in the records' order."""
+        out = torch.empty(X.shape[0], len(self.records), dtype=torch.float64)
+        for (idx, _, _, Y, _), pred in zip(self.groups, self.predict_groups(X)):
+            out[:, idx] = (pred - Y[None]).square().mean(dim=2).to(torch.float64)
+        return out
+
+    def residuals(self, X: torch.Tensor) -> torch.Tensor:
+        """Model minus measured response, all samples flattened, ``(N, M)``."""
+        return self.predict(X) - self.y_flat.to(X.dtype)[None]
+
+    @property
+    def jacobian_rows(self):
+        """``(X (N, D), free (D,) booleans) -> (residuals (N, M), Jacobian (N, M, F))`` w.r.t. the F free
+        coordinates, exact: the compiled loop's forward sensitivities w.r.t. the parameter values
+        (``simulate_jacobian``, one pass where finite differences take one simulation per coordinate) times
+        the parameter functions' derivatives w.r.t. the coordinates (forward-mode AD). None where the
+        sensitivities do not cover the model (the reference backend, an input delay, networks): then
+        Levenberg–Marquardt takes finite differences."""
+        if self.sim.backend != "fast" or not jacobian_covers(self.space.model):
+            return None
+        return self._jacobian
+
+    def _value_jacobian(self, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
+        """``{effect: {parameter: (N·R, F)}}``: each row's parameter values differentiated w.r.t. the free
+        coordinates ``idx``, in one forward-mode pass (coordinate j's direction in its own block of rows)."""
+        N, F = X.shape[0], len(idx)
+        E = X.new_zeros(N, F, X.shape[1])
+        E[:, torch.arange(F), idx] = 1.0
+        with dual_level():
+            values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+            tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
+        return {k: {n: X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+                    for n, v in d.items()} for k, d in tangents.items()}
+
+    def _jacobian(self, X: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        idx = torch.nonzero(torch.as_tensor(free, dtype=torch.bool)).reshape(-1).tolist()
+        res, jac = [], []
+        for group in self.groups:
+            _, _, U, Y, cond = group
+            N, R = X.shape[0], U.shape[0]
+            Xd = X.detach().to(U.dtype)
+            dvalues = self._value_jacobian(Xd, idx, cond, R)
+            y, dy, keys = simulate_jacobian(self.space.model, **self._batch(Xd, group), settings=self.sim)
+            dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
+            res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
+            jac.append((dy[..., 0, :] @ dvdx).reshape(N, -1, len(idx)))
+        return torch.cat(res, dim=1).to(torch.float64), torch.cat(jac, dim=1).to(torch.float64)
+
+    def cost(self, X: torch.Tensor) -> torch.Tensor:
+        """Pooled MSE over every sample of every record, ``(N,)`` (differentiable)."""
+        sse = 0.0
+        for (_, _, _, Y, _), pred in zip(self.groups, self.predict_groups(X)):
+            sse = sse + (pred - Y[None]).square().sum(dim=(1, 2))
+        return sse / self.n_samples
+
+
+def culprits(problem: RecordsProblem, x: torch.Tensor) -> list[str]:
+    """Coordinates whose reset alone (to the starting value or the box centre) makes a non-finite fit finite.
+
+    One batched evaluation of 2 D rows; if no single reset helps, every coordinate is named.
+    """
+    space = problem.space
+    centre = space.from_unit(torch.full((1, space.dim), 0.5, dtype=torch.float64))[0]
+    start = torch.tensor([c.value for c in space.coordinates], dtype=torch.float64)
+    diag = torch.arange(space.dim)
+    X = x.expand(2 * space.dim, -1).clone()
+    X[diag, diag] = start
+    X[space.dim + diag, diag] = centre
+    finite = torch.isfinite(safe_costs(problem.cost, X)).reshape(2, space.dim).any(dim=0)
+    names = [n for n, ok in zip(space.names, finite.tolist()) if ok]
+    return names or space.names
