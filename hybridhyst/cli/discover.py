@@ -25,7 +25,6 @@ from .common import (
     CONF_DIR,
     check_app,
     check_model_data,
-    config_block,
     guarded,
     hydra_entry,
     instantiate,
@@ -33,12 +32,12 @@ from .common import (
     mark_complete,
     prepare_run_dir,
     say,
-    simulation_settings,
     split_options,
     to_plain,
     torch_settings,
     write_model,
 )
+from .settings import config_block, simulation_settings
 
 __all__ = ["load_split", "main", "run", "summary_lines"]
 

@@ -31,16 +31,13 @@ from .common import (
     check_model_data,
     guarded,
     hydra_entry,
-    identify_start,
     instantiate,
     load_records,
     mark_complete,
     prepare_run_dir,
     resolution_note,
     say,
-    simulation_settings,
     split_options,
-    start_settings,
     to_plain,
     torch_settings,
     write_json,
@@ -56,6 +53,7 @@ from .fit_report import (
     write_loop_figure,
     write_report,
 )
+from .settings import identify_start, simulation_settings, start_settings
 
 __all__ = ["decimation_factors", "load_split", "main", "run"]
 

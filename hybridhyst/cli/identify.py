@@ -32,19 +32,18 @@ from .common import (
     edge_line,
     guarded,
     hydra_entry,
-    identify_settings,
     instantiate,
     load_records,
     mark_complete,
     prepare_run_dir,
     resolution_note,
     say,
-    simulation_settings,
     split_options,
     torch_settings,
     write_json,
     write_model,
 )
+from .settings import identify_settings, simulation_settings
 
 __all__ = ["add_noise", "main", "run"]
 

@@ -33,11 +33,11 @@ from .common import (
     mark_complete,
     prepare_run_dir,
     say,
-    simulation_settings,
     to_plain,
     torch_settings,
     write_json,
 )
+from .settings import simulation_settings
 
 __all__ = ["main", "run"]
 

@@ -27,7 +27,6 @@ import json
 import math
 import pickle
 import shutil
-import textwrap
 import time
 import warnings
 from pathlib import Path
@@ -52,27 +51,24 @@ from .common import (
     CONF_DIR,
     atomic_write,
     check_app,
-    edge_line,
     guarded,
     hydra_entry,
-    identify_start,
     jsonable,
     mark_complete,
     prepare_run_dir,
     run_dir_path,
     say,
-    simulation_settings,
-    start_settings,
     torch_settings,
     write_json,
 )
+from .settings import identify_start, simulation_settings, start_settings
+from .train_summary import SPLITS, log_hparams, physics_values, summary
 
 # build_datamodule, build_trainer, nominal_start and run_info come from hybridhyst.training.build,
 # re-exported for the app's callers and tests; build_module here adds the nominal's identification
 __all__ = ["StartModel", "build_datamodule", "build_module", "build_trainer", "finished_run", "identify_nominal",
            "main", "nominal_start", "run", "run_info", "summary"]
 
-SPLITS = ("train", "val", "test")
 
 
 def build_module(cfg: DictConfig, dm: RecordDataModule):
@@ -314,7 +310,7 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},
                 evaluated="best" if best and cfg.evaluate_best else "last")
     logged = {k: float(v) for k, v in trainer.callback_metrics.items()}  # the last epoch's logged values
-    result = {"status": "ok", **metrics, "info": meta, "physics": _physics(module), "nominal": starting.nominal,
+    result = {"status": "ok", **metrics, "info": meta, "physics": physics_values(module), "nominal": starting.nominal,
               "start": floor, "logged": logged, "diverged": [d.to_dict() for d in diverged],
               "wall_s": time.perf_counter() - start}
     if cfg.predictions:
@@ -324,7 +320,7 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         atomic_write(run_dir / "parameters.csv", pd.DataFrame(module.history).to_csv(index=False))
     if hasattr(module, "nominal"):
         atomic_write(run_dir / "model.pt", lambda p: torch.save(module.nominal.state_dict(), p))
-    _log_hparams(trainer, cfg, result)
+    log_hparams(trainer, cfg, result)
     write_json(run_dir / "metrics.json", result)
     mark_complete(run_dir, "train", ["config.yaml", "metrics.json", "predictions.parquet", "parameters.csv",
                                      "model.pt", "checkpoints", "tensorboard"])
@@ -345,77 +341,6 @@ def _best_checkpoint(trainer, checkpoints: Path) -> str:
     say(f"note: the checkpoint names its best weights at {best}, outside this run's {checkpoints}: not read; "
         "the last weights are evaluated")
     return ""
-
-
-def summary(result: dict, run_dir: Path, resumed: str | None = None) -> str:
-    """The terminal summary of a finished run: the starting nominal's RMSE and the trained model's per split
-    (``resumed``: the checkpoint the run was resumed from)."""
-    info, unit = result["info"], result["info"]["units"]["F"]
-
-    def row(label, m):
-        return f"  {label:<24}" + "".join(f"{_rmse(m.get(s)):>10}" for s in SPLITS)
-
-    nominal = result.get("nominal")
-    how = {"identify": "identified", "model": "model config", "nominal_state": "nominal_state",
-           "init_noise": "init_noise"}.get((nominal or {}).get("source"), "start")
-    ident = (nominal or {}).get("identify")
-    head = f"{info['name']}: {info['epochs']} epochs, {info['train_time_s']:.3g} s training"
-    if resumed:
-        head += f", resumed from {resumed}"
-    elif ident:
-        head += f" + {ident['wall_s']:.3g} s identifying the nominal"
-    lines = [head, f"  {'RMSE [' + unit + ']':<24}" + "".join(f"{s:>10}" for s in SPLITS)]
-    if nominal:
-        lines.append(row(f"nominal ({how})", nominal))
-    floor = result.get("start")
-    kept = bool(floor and floor["restored"])
-    lines.append(row(f"{info['name']} ({'start' if kept else info['evaluated']})", result))
-    if kept:
-        trained, start = _distinct(floor["trained_rmse"], floor["rmse"])
-        lines.append(f"  the trained model's {floor['split']} RMSE {trained} {unit} is above the "
-                     f"starting model's {start} {unit}: the starting weights are kept")
-    if ident and ident.get("at_bounds"):  # the box, not the data, set these: the hybrid starts from them
-        lines += textwrap.wrap(edge_line(ident["at_bounds"], "nominal_init.settings={bounds: {name: [low, high]}} "
-                                         "or {box_factor: ...}"), 116, initial_indent="  ", subsequent_indent="  ")
-    lines.append(f"  run dir: {run_dir}")
-    return "\n".join(lines)
-
-
-def _distinct(a, b) -> tuple[str, str]:
-    """``a`` and ``b`` with as many significant figures (4 to 12) as it takes to tell them apart; None is inf
-    (a diverged run's RMSE, which JSON stores as null)."""
-    a, b = (math.inf if v is None else float(v) for v in (a, b))
-    for digits in range(4, 13):
-        sa, sb = f"{a:.{digits}g}", f"{b:.{digits}g}"
-        if sa != sb:
-            break
-    return sa, sb
-
-
-def _rmse(m) -> str:
-    if not m:
-        return "-"
-    return "inf" if m.get("rmse") is None else f"{m['rmse']:.4g}"  # None: not finite (JSON null)
-
-
-def _physics(module) -> dict:
-    if not hasattr(module, "nominal"):
-        return {}
-    return {k: {"value": v, "unit": module.nominal_unit(k)} for k, v in module.nominal_values().items()}
-
-
-def _log_hparams(trainer, cfg, result):
-    logger = trainer.logger
-    if not logger or not hasattr(logger, "log_hyperparams"):
-        return
-    i = result["info"]
-    params = {"module": i["module"], "name": i["name"], "hidden": "x".join(map(str, i["hidden"] or [])) or "none",
-              "lambda_phys": i["lambda_phys"], "seed": i["seed"], "train_fraction": i["train_fraction"],
-              "lr": float(cfg.trainer.lr), "max_epochs": int(cfg.trainer.max_epochs), "n_parameters": i["n_parameters"]}
-    final = {f"hp/{s}_{m}": result[s][m] for s in ("train", "val", "test") for m in ("rmse", "mae")
-             if result.get(s) and math.isfinite(result[s][m])}
-    logger.log_hyperparams(params, final)
-    logger.finalize("success")  # after fit, this reopened the writer: close it (flushes the file now)
 
 
 @hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")

@@ -7,8 +7,9 @@ from collections.abc import Sequence
 import torch
 
 from ..nets import build_net
-from .base import InputSampleOf, NominalMixin, SequenceModule, _col, _flat_cond, _flat_controls
+from .base import SequenceModule
 from .losses import pinn_physics_residual, taylor_inputs
+from .nominal import InputSampleOf, NominalMixin, _col, _flat_cond, _flat_controls
 
 __all__ = ["LSTMModule", "MLPModule", "StdPINNModule"]
 

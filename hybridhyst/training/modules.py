@@ -22,18 +22,10 @@ from torch.nn.utils import parametrize
 from ..nets import build_net
 from ..physics.effects import NeuralEffect
 from ..physics.models import DrivenOscillator
-from .base import (
-    InputSampleOf,
-    NominalMixin,
-    SequenceModule,
-    _col,
-    _flat_cond,
-    _flat_controls,
-    load_nominal_state,
-    neural_scales,
-)
+from .base import SequenceModule
 from .baselines import LSTMModule, MLPModule, StdPINNModule
 from .losses import constant_values, hybrid_physics_residual, parameter_prior, taylor_inputs
+from .nominal import InputSampleOf, NominalMixin, _col, _flat_cond, _flat_controls, load_nominal_state, neural_scales
 
 NEURAL = "neural"  # the key of the dynamics network among the augmented model's effects
 
