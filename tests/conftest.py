@@ -28,3 +28,18 @@ def reduced_study(request, tmp_path_factory):
     run_dir = tmp_path_factory.mktemp(name)
     cfg = study_cli.compose_study(name, f"run_dir={run_dir}", "reduced=true", "progress=false")
     return study_cli.run(cfg), run_dir
+
+
+@pytest.fixture
+def drawn(monkeypatch) -> list:
+    """Every figure ``draw_loops`` makes during a test (also when reached through ``write_loops``)."""
+    from hybridhyst.report import figures
+
+    made, draw = [], figures.draw_loops
+
+    def spy(*args, **kwargs):
+        made.append(draw(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(figures, "draw_loops", spy)
+    return made

@@ -1,10 +1,11 @@
-"""Data layer: readers, validation messages, condition splits, bundled datasets, data configs."""
+"""Data layer: readers, validation messages, condition splits, data configs, records, and the fixes the data-mistake
+messages quote; bundled datasets: ``tests/test_data_bundled.py``; the mistake rules on legitimate data:
+``tests/test_data_legitimate.py``."""
 
 from __future__ import annotations
 
 import re
 import shlex
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +14,8 @@ import pytest
 import scipy.io
 import test_trust_data as trust
 
-from hybridhyst.data import Record, RecordSet, load_builtin, read, read_mat, read_npz, read_table, tables
+from hybridhyst.data import Record, RecordSet, read, read_mat, read_npz, read_table, tables
 from hybridhyst.data.decimate import decimation_factors
-from hybridhyst.data.scales import check_scales
 
 REPO = Path(__file__).parents[1]
 SHARED = REPO.parent / "shared"
@@ -243,86 +243,6 @@ def test_to_frame_is_long_table():
     assert len(frame) == 20 and frame.attrs["units"]["y"] == "Nm"
 
 
-# -- bundled data -------------------------------------------------------------------------------------------
-def test_brfd_records_and_conditions():
-    brfd = load_builtin("brfd")
-    cond = brfd.conditions
-    assert len(brfd) == 35 and (cond["kind"] == "characterisation").sum() == 31
-    assert cond.loc[cond["kind"] == "earthquake"].index.tolist() == [
-        "eq36lb_ImperialValleyDBE", "eq36lb_ImperialValleyMCE", "eq36lb_KocaeliDBE", "eq36lb_KocaeliMCE"]
-    assert set(cond.columns) == {"frequency_hz", "tension_lb", "amplitude_in", "kind", "earthquake",
-                                 "hazard_level", "tension_suspect"}
-    assert not cond.isna().any().any()
-    assert cond.loc["char_0.5Hz_36lb_1in", ["frequency_hz", "tension_lb", "amplitude_in"]].tolist() == [0.5, 36, 1]
-    assert cond.loc["char_2Hz_30lb_0.5in", ["frequency_hz", "tension_lb", "amplitude_in"]].tolist() == [2, 30, 0.5]
-    assert cond.loc["eq36lb_KocaeliMCE", "frequency_hz"] == 0.0
-    assert cond.loc["eq36lb_KocaeliMCE", "hazard_level"] == "MCE"
-    assert sorted(cond.index[cond["tension_suspect"]]) == [
-        "char_0.25Hz_0lb_0.5in", "char_0.25Hz_0lb_1in", "char_0.5Hz_0lb_0.5in", "char_1Hz_0lb_0.5in",
-        "char_2Hz_0lb_0.5in"]
-    r = brfd["char_1Hz_36lb_1in"]
-    assert len(r) == 7169 and r.units == {"t": "s", "x": "in", "y": "kip", "velocity": "in/s"}
-    assert r.dt == pytest.approx(1 / 1024) and abs(r.x).max() == pytest.approx(1.0, abs=0.05)
-    assert len(load_builtin("brfd", kind="earthquake")) == 4
-
-
-@pytest.mark.skipif(not (SHARED / "data").is_dir(), reason="shared data folder not present")
-def test_brfd_and_boucwen_equal_the_shared_files():
-    brfd = load_builtin("brfd")
-    with np.load(SHARED / "data" / "brfd" / "brfd_dataset2.npz") as src:
-        for r in brfd:
-            a = src[r.name]
-            np.testing.assert_array_equal(r.t, a[:, 0])
-            for got, col in ((r.x, 1), (r.y, 2), (r.extra["velocity"], 3)):
-                np.testing.assert_array_equal(got, a[:, col].astype(np.float32).astype(np.float64))
-    bw = load_builtin("boucwen")
-    with np.load(SHARED / "data" / "boucwen" / "boucwen_benchmark.npz") as src:
-        for name, key in (("train", "train"), ("multisine", "test_multisine"), ("sinesweep", "test_sinesweep")):
-            np.testing.assert_array_equal(bw[name].x[bw[name].warmup:], src[f"{key}_u"])
-            np.testing.assert_array_equal(bw[name].y[bw[name].warmup:], src[f"{key}_y"])
-
-
-def test_boucwen_shapes_and_split():
-    bw = load_builtin("boucwen")
-    assert {r.name: len(r) - r.warmup for r in bw} == {"train": 40960, "multisine": 8192, "sinesweep": 153000}
-    ms = bw["multisine"]  # periodic steady state: extended by its own last quarter period, not scored
-    assert ms.warmup == 2048 and np.array_equal(ms.y[:2048], ms.y[-2048:])
-    assert bw["multisine"].dt == pytest.approx(1 / 750) and bw["train"].units == {"t": "s", "x": "N", "y": "m"}
-    train, _, test = bw.split(held_out={"split": ["test"]})
-    assert train.names == ["train"] and test.names == ["multisine", "sinesweep"]
-
-
-def test_load_builtin_errors():
-    with pytest.raises(ValueError, match=r"unknown built-in dataset 'brdf'; did you mean 'brfd'"):
-        load_builtin("brdf")
-    with pytest.raises(ValueError, match=r"no option 'noise'; did you mean 'noise_sd'"):
-        load_builtin("vpptd", noise=0.1)
-
-
-def test_vpptd_generator_layout_and_noise():
-    clean = load_builtin("vpptd", mixtures=["1:3"], pressures=[0.01, 0.09], cycles=1, samples_per_cycle=60)
-    assert clean.names == ["1:3_p0.01", "1:3_p0.09"] and len(clean[0]) == 61
-    assert clean[1].conditions == {"mixture": "1:3", "pressure_mpa": 0.09, "frequency_hz": 0.79, "amplitude_deg": 10.0}
-    assert clean[0].units == {"t": "s", "x": "deg", "y": "Nm"} and clean[0].t[-1] == pytest.approx(1 / 0.79)
-    assert abs(clean[1].y).max() > abs(clean[0].y).max()
-    noisy = load_builtin("vpptd", mixtures="1:3", pressures=[0.01, 0.09], cycles=1, samples_per_cycle=60,
-                         noise_sd=0.5, seed=3)
-    one = load_builtin("vpptd", mixtures="1:3", pressures=[0.09], cycles=1, samples_per_cycle=60, noise_sd=0.5, seed=3)
-    np.testing.assert_array_equal(one[0].y, noisy[1].y)  # a record's noise does not depend on the others
-    assert np.std(noisy[1].y - clean[1].y) == pytest.approx(0.5, rel=0.3)
-    with pytest.raises(ValueError, match="unknown mixture"):
-        load_builtin("vpptd", mixtures=["2:1"])
-    with pytest.raises(ValueError, match="simulation diverged"):
-        load_builtin("vpptd", mixtures="NBR", pressures=[0.01], cycles=1, samples_per_cycle=60, substeps=1)
-
-
-def test_vpptd_peak_torque_of_seed_001():
-    """Seed 001 (the paper): 1:3 loops at ±10°, 0.79 Hz peak at about 19 Nm (0.01 MPa) and 38 Nm (0.09 MPa)."""
-    loops = load_builtin("vpptd", mixtures=["1:3"], pressures=[0.01, 0.09], cycles=2, samples_per_cycle=300)
-    peaks = [abs(r.y[300:]).max() for r in loops]
-    assert peaks[0] == pytest.approx(19.0, rel=0.2) and peaks[1] == pytest.approx(38.0, rel=0.2)
-
-
 # -- configs ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("config", sorted(p.stem for p in (REPO / "conf" / "data").glob("*.yaml")))
 def test_data_configs_instantiate(config, tmp_path):
@@ -415,67 +335,3 @@ def test_a_configured_frequency_condition_thins_per_cycle(tmp_path):
     assert set(decimation_factors(records, 25, 3, "none").values()) == {3}  # the experiments' spelling
     plain = read_table(tmp_path / "f.csv", **trust.COLUMNS)  # no frequency condition at all: downsample, no error
     assert set(decimation_factors(plain, 25, 2).values()) == {2}
-
-
-# -- data mistakes: the rules never fire on legitimate data -------------------------------------------------
-@pytest.mark.parametrize("name", ["brfd", "vpptd", "boucwen"])
-def test_bundled_data_load_without_error_or_warning(name):
-    options = {"pressures": [0.01, 0.05, 0.09], "cycles": 1, "samples_per_cycle": 60} if name == "vpptd" else {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        records = load_builtin(name, **options)
-        check_scales(records, "column 't'", "column 'x'")
-        stripped = [Record(r.name, r.t, r.x, r.y) for r in records]  # without the conditions that explain
-        check_scales(stripped, "column 't'", "column 'x'")
-    assert len(records) >= 3
-
-
-def test_large_spikes_impulses_and_decays_are_not_absurd(tmp_path):
-    t = np.arange(2000) / 1000.0
-    spike = np.sin(2 * np.pi * t)
-    spike[[500, 501, 1500]] = [5e3, -2e3, 1e4]  # a few samples 10^4 times the signal (a dropout or a shock)
-    impulse = np.zeros_like(t)
-    impulse[100] = 1.0
-    decay = np.exp(-t / 0.01) * np.cos(2 * np.pi * 50 * t)  # free decay to ~1e-87 of its start
-    quantised = np.round(np.sin(2 * np.pi * t) * 2**-23, 30) + np.where(t < 0.001, 1.0, 0.0)  # 24-bit range
-    roundoff = 1e-16 * np.sin(2 * np.pi * 7 * t)  # an impulse among round-off: 99 % of the channel near 1e-16
-    roundoff[[300, 301]] = [1.0, -0.5]
-    free = np.zeros_like(t)  # a free vibration: no input at all, the response decays from where it was let go
-    for x, y in ((spike, spike), (impulse, decay), (t + 1.0, quantised), (roundoff, decay), (free, decay)):
-        frame = pd.DataFrame({"t": t, "x": x, "y": y})
-        frame.to_csv(tmp_path / "r.csv", index=False)
-        record = read_table(tmp_path / "r.csv")[0]
-        np.testing.assert_allclose(record.y, y, rtol=1e-12, atol=0)
-
-
-def test_sample_rates_and_amplitudes_that_conditions_explain_load(tmp_path):
-    """A sweep sampled at 64 samples per cycle (0.1 to 100 Hz: sample intervals 1000× apart) and amplitudes
-    57× apart load when the records carry their frequency and amplitude; BRFD-like amplitudes (0.5/1/1.5)
-    load without any condition."""
-    parts = []
-    for f, amp in ((0.1, 10.0), (1.0, 10.0), (10.0, 10.0), (100.0, 10.0), (100.0, 0.1745)):
-        t = np.arange(128) / (64 * f)
-        parts.append(pd.DataFrame({"record": f"f{f}_a{amp}", "t": t, "x": amp * np.sin(2 * np.pi * f * t),
-                                   "y": np.cos(2 * np.pi * f * t), "frequency_hz": f, "amplitude_deg": amp}))
-    pd.concat(parts).to_csv(tmp_path / "sweep.csv", index=False)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        assert len(read_table(tmp_path / "sweep.csv", record="record",
-                              conditions=["frequency_hz", "amplitude_deg"])) == 5
-        frame = trust.loops()
-        for p, amp in zip(trust.PRESSURES, (0.5, 1.0, 1.5, 1.0, 0.5), strict=True):
-            frame.loc[frame.pressure_mpa == p, "angle_deg"] *= amp / 10
-        frame.to_csv(tmp_path / "amps.csv", index=False)
-        assert len(read_table(tmp_path / "amps.csv", **trust.COLUMNS)) == 5
-
-
-def test_a_unit_factor_among_varied_records_is_a_warning(tmp_path):
-    """Others that vary (amplitudes 6 to 15 deg) and one record about 57× below all of them: a warning that
-    names the record and column, not an error (a much smaller test may be real)."""
-    frame = trust.loops()
-    for p, amp in zip(trust.PRESSURES, (6.0, 10.0, 15.0, 8.0, 10.0 / 57.3), strict=True):
-        frame.loc[frame.pressure_mpa == p, "angle_deg"] *= amp / 10
-    frame.to_csv(tmp_path / "loops.csv", index=False)
-    with pytest.warns(UserWarning, match=r"record 'p0.09'.*input column 'angle_deg' in rad, not deg\?"):
-        records = read_table(tmp_path / "loops.csv", **trust.COLUMNS)
-    assert len(records) == 5

@@ -1,5 +1,7 @@
-"""The discovery loop: names an undeclared effect, recovers it, adds nothing to a correct model, and
-fails clearly on bad input. Discovery on data the library did not make: ``tests/test_testbed.py`` and
+"""The discovery loop: names an undeclared effect, recovers it, adds nothing to a correct model, finds the trends
+of parameters with a condition, refits, reports a diverging record and fails clearly on bad input. Candidates:
+``tests/test_discover_candidates.py``; residual diagnostics and the acceptance rule:
+``tests/test_discover_diagnostics.py``. Discovery on data the library did not make: ``tests/test_testbed.py`` and
 ``scripts/discovery_testbed.py``."""
 
 from __future__ import annotations
@@ -12,9 +14,9 @@ import pytest
 import torch
 
 from hybridhyst.data import Record, RecordSet
-from hybridhyst.discover import Scales, diagnose, discover, features, information_criterion, structure_explained
+from hybridhyst.discover import discover
 from hybridhyst.discover.report import write_discovery
-from hybridhyst.simulate import SimulationSettings, simulate
+from hybridhyst.simulate import simulate
 from hybridhyst.synth.effects import CASES, SPLIT, base_model, make_records, true_model
 
 NOISE = 0.02
@@ -108,107 +110,10 @@ def test_a_condition_with_three_training_levels_still_gets_its_trend(float64):
     assert res.report["after"]["test_rmse"] <= 1.5 * NOISE
 
 
-def test_bouc_wen_candidate_is_the_identifiable_normalised_form(float64):
-    """α, k1, D, A are held (discovery_fixed): only k, β, γ, n are searched, and the start adds a pure
-    hysteretic element F = k z (no elastic share, no cubic term) to the fitted model."""
-    from hybridhyst.discover.candidates import Scales, effect_candidates
-
-    records = make_records(None, noise_sd=NOISE)
-    model = base_model(None)
-    (cand,) = effect_candidates(model, Scales.of(records.records), ["bouc_wen"])
-    assert sorted(cand.free) == ["bouc_wen.beta", "bouc_wen.gamma", "bouc_wen.k", "bouc_wen.n"]
-    from hybridhyst.physics.parameters import Fixed
-
-    effect = cand.build(model).effects["bouc_wen"]
-    held = {n: float(fn(None, 1)[0]) for n, fn in effect.params.items() if isinstance(fn, Fixed)}
-    assert held == {"alpha": 0.0, "k1": 0.0, "D": 1.0, "A": 1.0}
-
-
-def test_sign_smoothing_widths_are_searched_well_below_the_data_speeds():
-    """A sign smoothed over the data's own speeds is a linear or |v|-like term: asymmetric Coulomb with
-    v_s ≫ |v| is dF·|v|/v_s, a force of one sign either way (seen on the 30 lb BRFD tests, v_s = 2593 in/s).
-    Every smoothing width's box ends at a tenth of the velocity scale; the other shape parameters keep theirs."""
-    from hybridhyst.discover.candidates import SMOOTHING_MAX, Scales, effect_candidates
-    from hybridhyst.physics.effects import EFFECTS
-
-    records = make_records(None, noise_sd=NOISE)
-    scales = Scales.of(records.records)
-    names = ["asymmetric_coulomb", "coulomb", "stribeck", "travel_drift"]
-    assert {n for n, cls in EFFECTS.items() if any(s.smoothing for s in cls.specs.values())} == set(names)
-    model = base_model(None).with_effects({})  # no effect present: every one is a candidate
-    for cand in effect_candidates(model, scales, names):
-        key = cand.meta["key"]
-        assert cand.bounds[f"{key}.v_s"][1] == pytest.approx(SMOOTHING_MAX * scales.v)
-        assert all(s[f"{key}.v_s"] <= SMOOTHING_MAX * scales.v for s in cand.starts)
-        assert len({tuple(sorted(s.items())) for s in cand.starts}) == len(cand.starts)  # no start twice
-    (stribeck,) = effect_candidates(model, scales, ["stribeck"])
-    assert stribeck.bounds["stribeck.vs"][1] > scales.v  # the Stribeck speed is not a smoothing width
-
-
-def test_diagnostics_measure_structure_and_whiteness():
-    rng = np.random.default_rng(0)
-    f = rng.uniform(-1, 1, 4000)
-    assert structure_explained(f, f**2 + 0.01 * rng.standard_normal(4000)) > 0.95
-    assert structure_explained(f, rng.standard_normal(4000)) < 0.02
-    records = make_records(None, noise_sd=NOISE)
-    preds = [r.y - NOISE * rng.standard_normal(len(r)) for r in records]  # white residual
-    d = diagnose(records.records, preds, NOISE)
-    assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
-    assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
-
-
-def test_a_structure_whose_sign_changes_with_the_condition_is_still_seen():
-    """A missing trend: the residual is (level − mean level) × a function of the loop phase, so pooled over the
-    levels its mean in every phase bin is 0 while within each level it is a function of the phase; η² is
-    measured within the levels (the pooled one saw nothing)."""
-    rng = np.random.default_rng(2)
-    records = make_records(None, noise_sd=NOISE).records
-    amps = sorted({r.conditions["amplitude_in"] for r in records})
-    weight = {a: i - (len(amps) - 1) / 2 for i, a in enumerate(amps)}
-    preds = [r.y - weight[r.conditions["amplitude_in"]] * 10 * NOISE * np.sin(features(r.t, r.x)["phase"])
-             - NOISE * rng.standard_normal(len(r)) for r in records]
-    d = diagnose(records, preds, NOISE)
-    assert d["dependence"]["phase"] > 0.5
-
-
-def test_a_residual_whose_size_grows_with_a_condition_is_named():
-    """Zero-mean noise three times larger at the largest amplitude: its mean depends on nothing (η² ≈ 0), its
-    size does, and the report's sentence names the condition with the RMS at both ends."""
-    from hybridhyst.discover.report import _scale_sentence
-
-    rng = np.random.default_rng(1)
-    records = make_records(None, noise_sd=NOISE).records
-    amps = sorted({r.conditions["amplitude_in"] for r in records})
-    gain = {a: 1.0 + 2.0 * (a - amps[0]) / (amps[-1] - amps[0]) for a in amps}
-    preds = [r.y - gain[r.conditions["amplitude_in"]] * NOISE * rng.standard_normal(len(r)) for r in records]
-    d = diagnose(records, preds, NOISE)
-    assert d["dependence"]["condition:amplitude_in"] < 0.02
-    rms = d["scale"]["amplitude_in"]
-    assert rms[f"{amps[-1]:g}"] / rms[f"{amps[0]:g}"] == pytest.approx(3.0, rel=0.15)
-    sentence = _scale_sentence(d["scale"], "kip")
-    assert "changes with amplitude_in" in sentence and f"at amplitude_in = {amps[0]:g}" in sentence
-    flat = diagnose(records, [r.y - NOISE * rng.standard_normal(len(r)) for r in records], NOISE)
-    assert _scale_sentence(flat["scale"], "kip") == ""
-
-
 def _coordinates_in_bic(entry: dict, n: int) -> float:
     """k solved from a step's reported ``bic_after`` and training RMSE: BIC = n ln(SSE/n) + k ln n with
     SSE/n = RMSE²; a whole number only if the loop computed the formula with a count of coordinates."""
     return (entry["evidence"]["bic_after"] - n * math.log(entry["train_rmse"] ** 2)) / math.log(n)
-
-
-def test_information_criterion_is_the_gaussian_formula():
-    """n = 50, SSE = 2.5, k = 3 by hand: 50 ln(0.05) = -149.78661367769954, 3 ln 50 = 11.736069016284438."""
-    assert information_criterion(2.5, 50, 3) == pytest.approx(-138.0505446614151, rel=1e-12)
-    assert information_criterion(2.5, 50, 3, "aic") == pytest.approx(-149.78661367769954 + 6, rel=1e-12)
-    # one more coordinate pays only if the SSE falls by more than the factor n^(-1/n) (0.955 at n = 100; AIC:
-    # e^(-2/n) = 0.980): 5 % less SSE is worth it under BIC, 4 % is not, though both are under AIC
-    assert information_criterion(0.95, 100, 4) < information_criterion(1.0, 100, 3)
-    assert information_criterion(0.96, 100, 4) > information_criterion(1.0, 100, 3)
-    assert information_criterion(0.97, 100, 4, "aic") < information_criterion(1.0, 100, 3, "aic")
-    assert information_criterion(0.99, 100, 4, "aic") > information_criterion(1.0, 100, 3, "aic")
-    assert all(information_criterion(*bad, 3) == math.inf for bad in ((0.0, 50), (-1.0, 50), (math.nan, 50),
-                                                                      (2.5, 0)))
 
 
 def _damper_records(noise_sd: float, seed: int = 0) -> RecordSet:
@@ -349,18 +254,6 @@ def test_a_trend_is_chosen_among_those_its_parameters_domain_admits_at_the_level
     assert choose_trend(c, y + 1.0, nonnegative)[0] == "linear"  # a line that stays above zero is still one
 
 
-def test_structure_is_flagged_above_the_known_noise_or_by_the_residual_network():
-    from hybridhyst.discover.leftover import structure_flagged
-
-    assert structure_flagged({"explained_share": 0.0}, train_rmse=0.3, noise_sd=0.2)
-    assert not structure_flagged({"explained_share": 0.9}, train_rmse=0.21, noise_sd=0.2)
-    assert structure_flagged({"explained_share": 0.3}, train_rmse=0.3, noise_sd=None)
-    assert not structure_flagged({"explained_share": 0.05}, train_rmse=0.3, noise_sd=None)
-    # a network in the dynamics scored on the records it was fitted to (no validation records) does not flag
-    assert not structure_flagged({"network": "dynamics", "explained_share": 0.5, "on": "train"}, 0.3, None)
-    assert structure_flagged({"network": "dynamics", "explained_share": 0.5, "on": "val"}, 0.3, None)
-
-
 def test_the_chosen_structure_is_refitted_on_training_and_validation_records(float64):
     """A spring + dashpot fitted at 0.5-1 Hz, validated at 3 Hz, tested at 2 Hz (data from the closed form,
     not the library's simulator). With ``refit`` the final parameters use the 3 Hz record as well; the
@@ -427,47 +320,6 @@ def test_an_effect_whose_level_depends_on_the_condition_gets_its_trend_after_it_
     assert rep["after"]["test_rmse"] <= 1.2 * noise < rep["steps"][1]["test_rmse"]
 
 
-def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away_from_rest(float64):
-    """Records from an exact gap + Dahl integration (numpy, ``testbed.generators``), each started as a rig
-    starts a test: moved down to −A first, so the gap is closed on the negative side and the element fully
-    deflected. From the clearance started at rest, the start candidate (``start_candidates``: one per effect
-    with ``Effect.start``, not for one that has its start already, never a condition trend) recovers q0 and
-    brings the error to the noise; the condition candidates leave the start state alone."""
-    from hybridhyst.discover.candidates import condition_candidates, start_candidates
-    from hybridhyst.discover.fitting import fit_candidate, polish
-    from hybridhyst.physics.effects import Clearance, Dahl, LinearStiffness, LuGre
-    from hybridhyst.physics.models import Constitutive
-    from hybridhyst.testbed.generators import clearance_dahl
-
-    r, sigma0, up, down, noise = 0.06, 15.0, 0.5, 0.7, 0.01
-    q0 = -(r + down / sigma0)
-    rng = np.random.default_rng(3)
-    records = []
-    for amp in (0.5, 1.0):
-        t = np.arange(0, 2.0, 1 / 150)
-        fine = np.linspace(0, 2.0, 20 * len(t) - 19)  # exact on a refined path, sampled every 20th point
-        x_fine = -amp * np.cos(2 * np.pi * fine)
-        y = 2 * x_fine[::20] + clearance_dahl(x_fine, r, sigma0, up, down, q0)[::20]
-        records.append(Record(f"a{amp}", t, x_fine[::20], y + noise * rng.standard_normal(len(t)),
-                              conditions={"amplitude_in": amp}))
-    model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": Clearance(sigma0=12.0, Fc=0.55, a=-0.1,
-                                                                                    r=0.05)}).double()
-    sim = SimulationSettings(substeps=2)
-    fit = polish(model, records, sim, 25, 10.0)
-    scales = Scales.of(records)
-    (cand,) = start_candidates(fit.model, scales)
-    assert cand.name == "clearance.start" and cand.kind == "start" and cand.free == ["clearance.q0"]
-    c_fit = fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
-    assert c_fit.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
-    assert math.sqrt(c_fit.sse / sum(len(r_) for r_ in records)) < 1.2 * noise < math.sqrt(fit.sse / 600)
-    assert start_candidates(c_fit.model, scales) == []  # started already
-    assert all(c.meta["param"] != "q0" for c in condition_candidates(c_fit.model, {"amplitude_in": [0.5, 1.0]}))
-    # one per effect that may start away from rest; none for the rest (a spring has no state)
-    many = Constitutive({"spring": LinearStiffness(k=1.0), "dahl": Dahl(sigma0=5.0, Fc=1.0),
-                         "lugre": LuGre(sigma0=5.0, Fc=1.0, Fs=1.2, vs=0.1)}).double()
-    assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
-
-
 def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_discovery_json(float64, tmp_path):
     """A test record the models cannot be simulated on (its sample interval far beyond the oscillator's explicit
     stability limit) is named with the sample it diverged from, in report.md and discovery.json, never dropped
@@ -507,51 +359,3 @@ def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_di
     said = []
     assert check_discovery(result, keep_going=True, warn=said.append)[0].record == "coarse"
     assert said and said[0].startswith("warning: the discovered model's simulation diverged")
-
-
-def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_another(float64):
-    """``workers``: each candidate's fit in a thread of its own; the compiled loops release the GIL, and every fit
-    is deterministic, so the steps, refusals, parameters and errors are the same numbers."""
-    records = _damper_records(NOISE)
-    kw = dict(candidates=["coulomb", "cubic_stiffness", "backlash"], split={"held_out": {"amplitude_in": [1.5]}},
-              conditions=False, noise_sd=NOISE, **FAST)
-    one = discover(records, base_model("coulomb"), workers=1, **kw).report
-    three = discover(records, base_model("coulomb"), workers=3, **kw).report
-    for key in ("steps", "rejected"):
-        assert [s["effect"] for s in one[key]] == [s["effect"] for s in three[key]]
-        for a, b in zip(one[key], three[key]):
-            assert a["evidence"]["ranking"] == b["evidence"]["ranking"]
-            assert a["parameters"] == b["parameters"]
-    assert one["after"]["test_rmse"] == three["after"]["test_rmse"]
-
-
-def test_an_estimated_noise_level_is_capped_by_what_the_model_already_leaves(float64):
-    """Without ``noise_sd`` the rule's σ is estimated from the data (``analysis.noise``); sampled at 12 points per
-    cycle a sine's own shape shows in its differences (the estimate several times the noise). The missing friction
-    is still named, and once a model leaves less than the estimate its training RMSE is the level the rule uses;
-    a level the user gave is kept."""
-    from hybridhyst.discover.fitting import Fit
-    from hybridhyst.discover.loop import DiscoverSettings, Loop
-
-    rng = np.random.default_rng(0)
-    out = []
-    for amp, f in [(0.5, 1.0), (1.0, 1.0), (1.0, 2.0), (0.75, 1.5), (1.5, 1.0), (1.5, 2.0)]:
-        t = np.arange(49) / (12 * f)
-        x, v = amp * np.sin(2 * np.pi * f * t), 2 * np.pi * f * amp * np.cos(2 * np.pi * f * t)
-        y = 2.0 * x + 0.5 * v + 0.6 * np.tanh(v / 0.05) + NOISE * rng.standard_normal(len(t))
-        out.append(Record(name=f"s{amp:g}_{f:g}", t=t, x=x, y=y, conditions={"amplitude_in": amp, "frequency_hz": f}))
-    records = RecordSet(out)
-    res = discover(records, base_model("coulomb"), candidates=["coulomb"], split=SPLIT, conditions=False,
-                   simulation=SimulationSettings(backend="reference"), **FAST)
-    noise = res.report["noise"]
-    assert noise["source"].startswith("estimated") and noise["sd"] > 2 * NOISE
-    assert [s["effect"] for s in res.report["steps"]] == ["coulomb"]
-    loop = Loop(records, base_model("coulomb"), DiscoverSettings(split=SPLIT, conditions=False))
-    n = loop.n_train
-    loop.fit = Fit(loop.model, sse=n * (0.5 * noise["sd"]) ** 2, k=3)
-    assert loop.rule.noise == pytest.approx(0.5 * noise["sd"])  # capped by the model's training RMSE
-    loop.fit = Fit(loop.model, sse=n * (2 * noise["sd"]) ** 2, k=3)
-    assert loop.rule.noise == pytest.approx(noise["sd"])
-    given = Loop(records, base_model("coulomb"), DiscoverSettings(split=SPLIT, conditions=False, noise_sd=1.0))
-    given.fit = loop.fit
-    assert given.rule.noise == 1.0

@@ -1,4 +1,6 @@
-"""The effect library: closed-form responses, neutral values, gradients and validation of every effect."""
+"""The effect library: registry, closed-form responses of the memoryless forces and state effects, and
+validation of every effect's values; input operators: ``tests/test_effects_operators.py``; gradients and neutral
+values: ``tests/test_effects_gradients.py``."""
 
 from __future__ import annotations
 
@@ -286,181 +288,11 @@ def test_maxwell_storage_stiffness_and_loss_under_a_sine():
         assert k_fit == pytest.approx(k_m * wt2 / (1 + wt2), rel=0.01), f
         assert c_fit == pytest.approx(k_m * tau / (1 + wt2), rel=0.01), f
 
-# -- input operators and structure modifiers ----------------------------------------------------------------
-def backlash_loop(r: float, downstream, dt: float = 2.5e-3):
-    """One period of x = sin(2 pi t) through a play of half-width r."""
-    t, x = sine(1.0, 1.0, 1.0, dt)
-    model = Constitutive([Backlash(r=r), *downstream])
-    return t, x, respond(model, x[None], t=t)[0]
-
-
-def test_backlash_with_zero_width_is_transparent():
-    t, x, F = backlash_loop(0.0, [Dahl(sigma0=5.0, Fc=1.0)])
-    F_ref = respond(Constitutive([Dahl(sigma0=5.0, Fc=1.0)]), x[None], t=t)[0]
-    assert torch.allclose(F, F_ref, atol=1e-12)
-
-
-def test_backlash_dead_band_width():
-    r, margin = 0.2, 0.05
-    t, x, y = backlash_loop(r, [LinearStiffness(k=1.0)])
-    assert float(y.max()) == pytest.approx(1.0 - r, abs=1e-3)  # output peak = input peak - r
-    assert float(y.min()) == pytest.approx(-1.0 + r, abs=1e-3)
-    v = torch.gradient(x, spacing=(t,))[0]
-    sliding = (v.abs() > 5.5) & (t > 0.1)  # |x| < 0.48, past every dead band
-    assert torch.allclose((x - y)[sliding], r * v[sliding].sign(), atol=1e-3)  # gap = r while sliding
-    # after the reversal at t = 0.25 the output holds while x crosses 2r, then follows x + r
-    after = (t > 0.25) & (t < 0.5)
-    held = after & (x > 1.0 - 2 * r + margin)
-    assert float((y[held] - (1.0 - r)).abs().max()) < 1e-3
-    moving = after & (x < 1.0 - 2 * r - margin)
-    assert torch.allclose(y[moving], x[moving] + r, atol=1e-3)
-
-
-def exact_play(x: np.ndarray, r: float) -> np.ndarray:
-    """The discrete play operator y_k = clamp(y_{k-1}, x_k - r, x_k + r), y_0 = x_0 (written independently)."""
-    y = np.empty_like(x)
-    y[0] = x[0]
-    for k in range(1, len(x)):
-        y[k] = min(max(y[k - 1], x[k] - r), x[k] + r)
-    return y
-
-
-def test_backlash_is_the_play_operator_at_any_sample_rate():
-    """No smoothing width to resolve: from 16 samples per cycle on, the output is the discrete play operator
-    up to the second-order error with which the gap integrates the input's velocity (it falls as h²)."""
-    r, errors = 0.15, []
-    for samples_per_cycle in (16, 40, 400):
-        t, x, y = backlash_loop(r, [LinearStiffness(k=1.0)], dt=1.0 / samples_per_cycle)
-        errors.append(float(np.abs(y.numpy() - exact_play(x.numpy(), r)).max()))
-    assert errors[0] < 0.02 and errors[1] < 3e-3  # of a unit amplitude, r = 0.15
-    assert errors[1] / errors[2] > 50  # ten times the rate: about a hundred times less error
-
-
-def test_backlash_needs_the_projecting_fixed_step_solver():
-    t, x = sine(1.0, 1.0, 1.0, 0.01)
-    with pytest.raises(ValueError, match="cannot project bounded states"):
-        simulate(Constitutive([Backlash(r=0.1), LinearStiffness(k=1.0)]), x[None], t=t, solver="torchdiffeq")
-
-
-def test_backlash_coulomb_shows_dead_band_after_reversal():
-    r, margin = 0.2, 0.05
-    t, x, F = backlash_loop(r, [Coulomb(Fc=1.0, v_s=0.05)])
-    F_direct = respond(Constitutive([Coulomb(Fc=1.0, v_s=0.05)]), x[None], t=t)[0]
-    for t_rev, level, sgn in ((0.25, 1.0, -1.0), (0.75, -1.0, 1.0)):
-        window = (t > t_rev) & (t < t_rev + 0.25)
-        inside = window & ((x - level).abs() < 2 * r - margin) & ((x - level).abs() > margin)
-        outside = window & ((x - level).abs() > 2 * r + margin)
-        assert float(F[inside].abs().max()) < 0.01  # no friction in the dead band
-        assert torch.allclose(F[outside], torch.full_like(F[outside], sgn), atol=0.01)
-        assert torch.allclose(F_direct[inside], torch.full_like(F_direct[inside], sgn), atol=0.01)
-
-
-def test_inertia_constitutive_gives_mass_times_acceleration():
-    m, w = 2.0, 2 * math.pi
-    t, x = sine(1.0, 1.0, 1.0, 1e-3)
-    F = respond(Constitutive([Inertia(m=m)]), x[None], t=t)[0]
-    expected = -m * w**2 * torch.sin(w * t)
-    assert float((F - expected)[2:-2].abs().max()) < 1e-3 * m * w**2  # finite-difference accuracy
-
-
-def test_inertia_adds_to_oscillator_mass():
-    u = torch.randn(2, 301, generator=torch.Generator().manual_seed(0))
-    with_inertia = DrivenOscillator([Inertia(m=1.5), LinearStiffness(k=4.0), Viscous(c=0.3)], mass=0.5)
-    heavier = DrivenOscillator([LinearStiffness(k=4.0), Viscous(c=0.3)], mass=2.0)
-    assert torch.allclose(respond(with_inertia, u, dt=0.01), respond(heavier, u, dt=0.01), atol=1e-12)
-
-
-def test_time_delay_shifts_a_sine():
-    tau, w = 0.0537, 2 * math.pi
-    t, x = sine(1.0, 1.0, 1.0, 1e-3)
-    F = respond(Constitutive([TimeDelay(tau=tau), LinearStiffness(k=1.0)]), x[None], t=t)[0]
-    expected = torch.where(t >= tau, torch.sin(w * (t - tau)), torch.zeros_like(t))
-    assert float((F - expected).abs().max()) < 1e-5  # linear interpolation error (w dt)^2 / 8
-
-
-# -- neutral values and gradients ---------------------------------------------------------------------------
-def random_excitation(batch: int = 2, samples: int = 60, dt: float = 0.01):
-    g = torch.Generator().manual_seed(1)
-    t = torch.arange(samples) * dt
-    freqs = torch.tensor([1.0, 2.3, 4.1])
-    phases = 2 * math.pi * torch.rand(batch, 3, 1, generator=g)
-    amps = 0.3 * torch.rand(batch, 3, 1, generator=g) + 0.1
-    return t, (amps * torch.sin(2 * math.pi * freqs[:, None] * t + phases)).sum(1)
-
-
-ACTIVE = {
-    "asymmetric_coulomb": {"Fc": 1.0, "dF": 0.3, "v_s": 0.5},
-    "cubic_stiffness": {"k3": 2.0},
-    "dahl": {"sigma0": 25.0, "Fc": 0.5},
-    "lugre": {"sigma0": 25.0, "sigma1": 0.5, "sigma2": 0.2, "Fc": 0.5, "Fs": 0.8, "vs": 0.3},
-    "stribeck": {"dFs": 0.5, "vs": 0.3, "v_s": 0.2},
-    "backlash": {"r": 0.02},
-    "inertia": {"m": 0.5},
-    "attenuation": {"xi": 0.7},
-    "time_delay": {"tau": 0.013},
-    "clearance": {"sigma0": 25.0, "Fc": 0.5, "a": 0.2, "r": 0.02},
-    "maxwell": {"k_m": 2.0, "tau": 0.05},
-}
-
 
 def raw(effect, pname: str) -> torch.Tensor:
     """The stored (unconstrained) leaf tensor of a constant parameter."""
     (leaf,) = effect.params[pname].parameters()
     return leaf
-
-
-def structures(effect):
-    """The effect under test first (so a backlash or delay reaches the springs), then springs and damping."""
-    def rest():
-        return [LinearStiffness(k=3.0), Viscous(c=0.5)]
-
-    return {"constitutive": Constitutive([effect, *rest()]),
-            "oscillator": DrivenOscillator([effect, *rest()], mass=1.0)}
-
-
-@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
-@pytest.mark.parametrize("cls", NEW_EFFECTS, ids=lambda c: c.name)
-def test_every_parameter_gets_the_right_gradient(cls, structure):
-    """Every parameter gets a finite non-zero gradient, and it matches a central difference along it."""
-    effect = cls(**ACTIVE[cls.name])
-    model = structures(effect)[structure]
-    t, u = random_excitation()
-    leaves = [raw(effect, n) for n in effect.params]
-
-    def loss():
-        return simulate(model, u, t=t, substeps=2).square().sum()
-
-    grads = torch.autograd.grad(loss(), leaves)
-    for name, grad in zip(effect.params, grads, strict=True):
-        assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{name}: gradient {grad}"
-    norm = torch.sqrt(sum(g**2 for g in grads))
-    step = 1e-5
-    with torch.no_grad():
-        ends = []
-        for sign in (1.0, -2.0, 1.0):  # +step, -step, back to the start
-            for leaf, g in zip(leaves, grads, strict=True):
-                leaf.add_(sign * step * g / norm)
-            ends.append(loss())
-    assert float((ends[0] - ends[1]) / (2 * step)) == pytest.approx(float(norm), rel=1e-6)
-
-
-NEUTRAL = (AsymmetricCoulomb, CubicStiffness, Stribeck, Backlash, Inertia, Attenuation, TimeDelay, Maxwell)
-
-
-@pytest.mark.parametrize("cls", NEUTRAL, ids=lambda c: c.name)
-def test_neutral_effect_changes_nothing_and_still_learns(cls):
-    """At its neutral values an added effect leaves the response unchanged, and its neutral parameters still
-    get a gradient (so discovery can grow the effect from there)."""
-    neutral = {n: s.neutral for n, s in cls.specs.items() if s.neutral is not None}
-    effect = cls(**neutral)
-    t, u = random_excitation()
-    for name, model in structures(effect).items():
-        reference = structures(Viscous(c=0.0))[name]  # the same structure without the effect
-        y = simulate(model, u, t=t, substeps=2)
-        assert torch.allclose(y, simulate(reference, u, t=t, substeps=2), atol=1e-12), name
-        grads = torch.autograd.grad(y.square().sum(), [raw(effect, n) for n in neutral])
-        for pname, grad in zip(neutral, grads, strict=True):
-            assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{pname}: gradient {grad} at neutral ({name})"
 
 
 # -- values outside a parameter's domain are refused where the effect is built, naming it ---------------------------

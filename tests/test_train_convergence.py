@@ -73,7 +73,8 @@ def test_the_nominal_starts_from_an_identified_fit_by_default(loops, tmp_path):
     # seed 000's recipe re-initialises the parameters near zero: no identification there
     noise_start = _start_rmse(_compose(loops, tmp_path, "module=physics", "loss=pinn_recipe"))
     assert noise_start > 10 * NOISE
-    assert train.run_info(_compose(loops, tmp_path, "module=physics", "loss=pinn_recipe"))["nominal_init"] == "init_noise"
+    info = train.run_info(_compose(loops, tmp_path, "module=physics", "loss=pinn_recipe"))
+    assert info["nominal_init"] == "init_noise"
     with pytest.raises(ValueError, match="unknown nominal_init.start 'fit'"):
         _start_rmse(_compose(loops, tmp_path, "nominal_init.start=fit"))
     with pytest.raises(ValueError, match="nominal_init.settings.generation"):

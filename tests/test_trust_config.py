@@ -177,8 +177,8 @@ def test_documented_overrides_pass_the_check(app, overrides, tmp_path):
 
 
 def _documented_commands() -> list[tuple[str, list[str]]]:
-    """(app, overrides) of every command in the README's, docs/'s and the experiments' READMEs' code blocks (a sweep's first
-    value; lines with shell variables left out)."""
+    """(app, overrides) of every command in the README's, docs/'s and the experiments' READMEs' code blocks (a
+    sweep's first value; lines with shell variables left out)."""
     import re
     import shlex
 

@@ -1,0 +1,108 @@
+"""Discovery's candidates: Bouc–Wen form, smoothing-width boxes, start states, fits side by side."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_discover import FAST, NOISE, _damper_records
+
+from hybridhyst.data import Record
+from hybridhyst.discover import Scales, discover
+from hybridhyst.simulate import SimulationSettings
+from hybridhyst.synth.effects import base_model, make_records
+
+
+def test_bouc_wen_candidate_is_the_identifiable_normalised_form(float64):
+    """α, k1, D, A are held (discovery_fixed): only k, β, γ, n are searched, and the start adds a pure
+    hysteretic element F = k z (no elastic share, no cubic term) to the fitted model."""
+    from hybridhyst.discover.candidates import Scales, effect_candidates
+
+    records = make_records(None, noise_sd=NOISE)
+    model = base_model(None)
+    (cand,) = effect_candidates(model, Scales.of(records.records), ["bouc_wen"])
+    assert sorted(cand.free) == ["bouc_wen.beta", "bouc_wen.gamma", "bouc_wen.k", "bouc_wen.n"]
+    from hybridhyst.physics.parameters import Fixed
+
+    effect = cand.build(model).effects["bouc_wen"]
+    held = {n: float(fn(None, 1)[0]) for n, fn in effect.params.items() if isinstance(fn, Fixed)}
+    assert held == {"alpha": 0.0, "k1": 0.0, "D": 1.0, "A": 1.0}
+
+
+def test_sign_smoothing_widths_are_searched_well_below_the_data_speeds():
+    """A sign smoothed over the data's own speeds is a linear or |v|-like term: asymmetric Coulomb with
+    v_s ≫ |v| is dF·|v|/v_s, a force of one sign either way (seen on the 30 lb BRFD tests, v_s = 2593 in/s).
+    Every smoothing width's box ends at a tenth of the velocity scale; the other shape parameters keep theirs."""
+    from hybridhyst.discover.candidates import SMOOTHING_MAX, Scales, effect_candidates
+    from hybridhyst.physics.effects import EFFECTS
+
+    records = make_records(None, noise_sd=NOISE)
+    scales = Scales.of(records.records)
+    names = ["asymmetric_coulomb", "coulomb", "stribeck", "travel_drift"]
+    assert {n for n, cls in EFFECTS.items() if any(s.smoothing for s in cls.specs.values())} == set(names)
+    model = base_model(None).with_effects({})  # no effect present: every one is a candidate
+    for cand in effect_candidates(model, scales, names):
+        key = cand.meta["key"]
+        assert cand.bounds[f"{key}.v_s"][1] == pytest.approx(SMOOTHING_MAX * scales.v)
+        assert all(s[f"{key}.v_s"] <= SMOOTHING_MAX * scales.v for s in cand.starts)
+        assert len({tuple(sorted(s.items())) for s in cand.starts}) == len(cand.starts)  # no start twice
+    (stribeck,) = effect_candidates(model, scales, ["stribeck"])
+    assert stribeck.bounds["stribeck.vs"][1] > scales.v  # the Stribeck speed is not a smoothing width
+
+
+def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away_from_rest(float64):
+    """Records from an exact gap + Dahl integration (numpy, ``testbed.generators``), each started as a rig
+    starts a test: moved down to −A first, so the gap is closed on the negative side and the element fully
+    deflected. From the clearance started at rest, the start candidate (``start_candidates``: one per effect
+    with ``Effect.start``, not for one that has its start already, never a condition trend) recovers q0 and
+    brings the error to the noise; the condition candidates leave the start state alone."""
+    from hybridhyst.discover.candidates import condition_candidates, start_candidates
+    from hybridhyst.discover.fitting import fit_candidate, polish
+    from hybridhyst.physics.effects import Clearance, Dahl, LinearStiffness, LuGre
+    from hybridhyst.physics.models import Constitutive
+    from hybridhyst.testbed.generators import clearance_dahl
+
+    r, sigma0, up, down, noise = 0.06, 15.0, 0.5, 0.7, 0.01
+    q0 = -(r + down / sigma0)
+    rng = np.random.default_rng(3)
+    records = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0, 1 / 150)
+        fine = np.linspace(0, 2.0, 20 * len(t) - 19)  # exact on a refined path, sampled every 20th point
+        x_fine = -amp * np.cos(2 * np.pi * fine)
+        y = 2 * x_fine[::20] + clearance_dahl(x_fine, r, sigma0, up, down, q0)[::20]
+        records.append(Record(f"a{amp}", t, x_fine[::20], y + noise * rng.standard_normal(len(t)),
+                              conditions={"amplitude_in": amp}))
+    model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": Clearance(sigma0=12.0, Fc=0.55, a=-0.1,
+                                                                                    r=0.05)}).double()
+    sim = SimulationSettings(substeps=2)
+    fit = polish(model, records, sim, 25, 10.0)
+    scales = Scales.of(records)
+    (cand,) = start_candidates(fit.model, scales)
+    assert cand.name == "clearance.start" and cand.kind == "start" and cand.free == ["clearance.q0"]
+    c_fit = fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
+    assert c_fit.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
+    assert math.sqrt(c_fit.sse / sum(len(r_) for r_ in records)) < 1.2 * noise < math.sqrt(fit.sse / 600)
+    assert start_candidates(c_fit.model, scales) == []  # started already
+    assert all(c.meta["param"] != "q0" for c in condition_candidates(c_fit.model, {"amplitude_in": [0.5, 1.0]}))
+    # one per effect that may start away from rest; none for the rest (a spring has no state)
+    many = Constitutive({"spring": LinearStiffness(k=1.0), "dahl": Dahl(sigma0=5.0, Fc=1.0),
+                         "lugre": LuGre(sigma0=5.0, Fc=1.0, Fs=1.2, vs=0.1)}).double()
+    assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
+
+
+def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_another(float64):
+    """``workers``: each candidate's fit in a thread of its own; the compiled loops release the GIL, and every fit
+    is deterministic, so the steps, refusals, parameters and errors are the same numbers."""
+    records = _damper_records(NOISE)
+    kw = dict(candidates=["coulomb", "cubic_stiffness", "backlash"], split={"held_out": {"amplitude_in": [1.5]}},
+              conditions=False, noise_sd=NOISE, **FAST)
+    one = discover(records, base_model("coulomb"), workers=1, **kw).report
+    three = discover(records, base_model("coulomb"), workers=3, **kw).report
+    for key in ("steps", "rejected"):
+        assert [s["effect"] for s in one[key]] == [s["effect"] for s in three[key]]
+        for a, b in zip(one[key], three[key]):
+            assert a["evidence"]["ranking"] == b["evidence"]["ranking"]
+            assert a["parameters"] == b["parameters"]
+    assert one["after"]["test_rmse"] == three["after"]["test_rmse"]

@@ -1,0 +1,103 @@
+"""Levenberg–Marquardt in identification: diverging rows, free coordinates, non-finite and exact Jacobians."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from test_identify import _dahl, _linear, _records
+
+from hybridhyst.identify import RecordsProblem, SearchSpace
+from hybridhyst.identify.refine import levenberg_marquardt
+from hybridhyst.physics.effects import EFFECTS
+from hybridhyst.physics.models import Constitutive
+
+
+def test_levenberg_marquardt_survives_rows_that_diverge():
+    """A restart whose simulation diverges (NaN residuals and Jacobian) gets a zero step; the others go on."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([0.0, 0.0], [4.0, 4.0])
+    target = torch.tensor([1.0, 2.0], dtype=torch.float64)
+
+    def residual_rows(X):
+        r = (X - target) * torch.tensor([1.0, 3.0], dtype=torch.float64)
+        return torch.where((X[:, :1] > 3.0), torch.full_like(r, float("nan")), r)
+
+    starts = torch.tensor([[3.5, 3.5], [0.5, 0.5]])  # the first row is NaN from the start
+    res = levenberg_marquardt(residual_rows, box, starts, iters=30, progress=False)
+    assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
+
+
+def test_levenberg_marquardt_takes_differences_where_an_exact_jacobian_is_not_finite():
+    """A row whose exact Jacobian is not finite where its residuals are (a sensitivity that overflows) gets a
+    finite-difference Jacobian instead of zero steps, and reaches the optimum."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([0.0, 0.0], [4.0, 4.0])
+    target = torch.tensor([1.0, 2.0], dtype=torch.float64)
+    weights = torch.tensor([1.0, 3.0], dtype=torch.float64)
+
+    def residual_rows(X):
+        return (X - target) * weights
+
+    def jacobian_rows(X, free):  # exact, but infinite on the line x0 = 2.5 (where the start lies)
+        J = torch.diag(weights)[None, :, free].expand(X.shape[0], -1, -1).clone()
+        J[(X[:, 0] - 2.5).abs() < 1e-9] = float("inf")
+        return residual_rows(X), J
+
+    start = torch.tensor([[2.5, 2.5]], dtype=torch.float64)
+    res = levenberg_marquardt(residual_rows, box, start, iters=30, progress=False, jacobian_rows=jacobian_rows)
+    assert torch.allclose(res.x, target, atol=1e-6) and res.cost < 1e-12
+    assert res.evaluations > 1 + 2  # the start's Jacobian took differences: one row per coordinate
+
+
+def test_levenberg_marquardt_moves_only_free_coordinates():
+    """``free`` masks coordinates: held ones keep each row's start, free ones reach their conditional optimum."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([-4.0, -4.0], [4.0, 4.0])
+
+    def residual_rows(X):  # optimum of x0 given x1 is x0 = 1 + 0.5 x1; joint optimum (1, 2)
+        return torch.stack([X[:, 0] - 1.0 - 0.5 * X[:, 1], X[:, 1] - 2.0], dim=1)
+
+    starts = torch.tensor([[0.0, -1.0], [3.0, 1.0]], dtype=torch.float64)
+    res = levenberg_marquardt(residual_rows, box, starts, iters=40, free=torch.tensor([True, False]), progress=False)
+    assert torch.allclose(res.X[:, 1], starts[:, 1])
+    assert torch.allclose(res.X[:, 0], 1.0 + 0.5 * starts[:, 1], atol=1e-6)
+    with pytest.raises(ValueError, match="no free coordinate"):
+        levenberg_marquardt(residual_rows, box, starts, free=torch.tensor([False, False]), progress=False)
+
+
+def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):
+    """``RecordsProblem.jacobian_rows`` (forward sensitivities through the parameter functions and the
+    compiled loop) against central differences of the residuals, for a model with a play before a spring (a
+    projected state), a parameter linear in a condition and records at several conditions, on a subset of
+    coordinates; then LM with it takes the same path as with finite differences."""
+    def play_model(r, c, k, Fc):
+        dahl = _dahl(sigma0=10.0, c=c)
+        dahl.effects["dahl"].params["Fc"] = Fc
+        return Constitutive({"play": EFFECTS["backlash"](r=r), "spring": EFFECTS["linear_stiffness"](k=k),
+                             **dict(dahl.effects)}, units=dahl.units).double()
+
+    data = _records(play_model(0.1, 0.5, 3.0, _linear(1.0, 20.0)), [{"pressure_mpa": p} for p in (0.02, 0.05, 0.08)])
+    problem = RecordsProblem(SearchSpace(play_model(0.07, 0.3, 2.0, _linear(1.5, 12.0))), list(data))
+    X = problem.space.initial()[None].expand(2, -1).clone()
+    X[1] *= 1.1
+    free = torch.ones(problem.space.dim, dtype=torch.bool)
+    free[problem.space.names.index("dahl.sigma0")] = False
+    r, J = problem.jacobian_rows(X, free)
+    assert torch.allclose(r, problem.residuals(X), rtol=0, atol=1e-12)
+    for j, i in enumerate(torch.nonzero(free).reshape(-1).tolist()):
+        h = 1e-6 * max(abs(float(X[:, i].abs().max())), 1.0)
+        E = torch.zeros_like(X)
+        E[:, i] = h
+        fd = (problem.residuals(X + E) - problem.residuals(X - E)) / (2 * h)
+        assert torch.allclose(J[:, :, j], fd, rtol=1e-4, atol=1e-6 * float(fd.abs().max())), problem.space.names[i]
+    assert float(J[:, :, 0].abs().max()) > 0.1  # the play's half-width moves the spring's force
+    exact = levenberg_marquardt(problem.residuals, problem.space, X, iters=40, progress=False,
+                                jacobian_rows=problem.jacobian_rows)
+    fd = levenberg_marquardt(problem.residuals, problem.space, X, iters=40, progress=False)
+    assert exact.cost <= fd.cost * (1 + 1e-6) and torch.allclose(exact.x, fd.x, rtol=1e-4)  # the same path
+    assert exact.cost < 0.1 * fd.history[0]
+    assert exact.evaluations < fd.evaluations / 2  # a Jacobian pass counts as one row, not one per coordinate
+    assert RecordsProblem(problem.space, list(data), backend="reference").jacobian_rows is None
