@@ -14,24 +14,23 @@ from hybridhyst.physics.effects import (
     EFFECTS,
     AsymmetricCoulomb,
     Attenuation,
-    Backlash,
     Clearance,
     Coulomb,
     CubicStiffness,
     Dahl,
-    Inertia,
     LinearStiffness,
     LuGre,
     Maxwell,
     Stribeck,
-    TimeDelay,
     Viscous,
 )
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
 from hybridhyst.simulate import simulate
 
-NEW_EFFECTS = (AsymmetricCoulomb, CubicStiffness, Dahl, LuGre, Stribeck, Backlash, Inertia, Attenuation, TimeDelay,
-               Clearance, Maxwell)
+# every library effect that acts without a control channel and is not a network: registering an effect puts it in
+# every test below that iterates this (a control's effects: tests/test_controls.py; networks: tests/test_neural.py)
+CONTROL_EFFECTS = {"control_lag", "control_saturation", "spencer_mr"}
+NEW_EFFECTS = tuple(cls for name, cls in EFFECTS.items() if name != "neural" and name not in CONTROL_EFFECTS)
 
 
 pytestmark = pytest.mark.usefixtures("float64")  # conftest: float64 default dtype, restored afterwards

@@ -57,8 +57,9 @@ def test_every_composition_builds_back_from_its_config(name):
     torch.testing.assert_close(_response(again), _response(model), rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", range(3), ids=["linear", "exp_rise", "per_condition"])
 @pytest.mark.parametrize("effect", sorted(set(EFFECTS) - {"neural"}))
-def test_every_effect_with_functions_of_a_condition_builds_back(effect):
+def test_every_effect_with_functions_of_a_condition_builds_back(effect, kind):
     """Each library effect added to a nominal, its first free parameter a function of a condition of each kind."""
     base = COMPOSITIONS["dahl_friction"]().double()
     added = EFFECTS[effect]()
@@ -67,7 +68,7 @@ def test_every_effect_with_functions_of_a_condition_builds_back(effect):
         value = float(added.params[free[0]](None, 1)[0].detach()) or 0.1
         kinds = [Linear(0.3 * value, value, "current"), ExpRise(value, 0.5 * value, 3.0, "current"),
                  PerCondition([LEVEL, 0.5], [value, 2 * value], "current")]
-        added.params[free[0]] = kinds[sorted(EFFECTS).index(effect) % len(kinds)]
+        added.params[free[0]] = kinds[kind]
     model = _moved(base.augmented({"added": added.double()}), seed=1)
     again = _rebuilt(model)
     assert again.describe() == model.describe()

@@ -1,6 +1,7 @@
 """The effect library: one effect per file; ``EFFECTS`` maps config names to classes.
 
-Adding an effect = writing one file with an ``Effect`` subclass and listing it here.
+Adding an effect = writing one file with an ``Effect`` subclass, importing it here and adding it to ``EFFECTS``
+(docs/extending.md).
 """
 
 from .asymmetric_coulomb import AsymmetricCoulomb as AsymmetricCoulomb
@@ -54,29 +55,5 @@ EFFECTS: dict[str, type[Effect]] = {
     )
 }
 
-__all__ = [
-    "EFFECTS",
-    "AsymmetricCoulomb",
-    "Attenuation",
-    "Backlash",
-    "BoucWenHysteresis",
-    "BoucWenNormalised",
-    "Clearance",
-    "ControlLag",
-    "ControlSaturation",
-    "Coulomb",
-    "CubicStiffness",
-    "Dahl",
-    "Effect",
-    "Inertia",
-    "Kinematics",
-    "LinearStiffness",
-    "LuGre",
-    "Maxwell",
-    "SpencerMR",
-    "NeuralEffect",
-    "Stribeck",
-    "TimeDelay",
-    "TravelDrift",
-    "Viscous",
-]
+# every effect class by its Python name, with the registry and the base classes
+__all__ = ["EFFECTS", "Effect", "Kinematics", *sorted(cls.__name__ for cls in EFFECTS.values())]

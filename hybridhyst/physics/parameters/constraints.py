@@ -64,7 +64,7 @@ class ParameterSpec:
     ----------
     default : value used when the configuration gives none (the effect's neutral value where it has one).
     unit : unit template in the model's symbols ``F`` (response), ``x`` (excitation/displacement),
-        ``u`` (input), ``t`` (time), e.g. ``"F*s/x"`` for a viscous coefficient; see ``render_unit``.
+        ``u`` (input), ``t`` (time), e.g. ``"F*t/x"`` for a viscous coefficient; see ``render_unit``.
     bounds : search bounds used by identification; also the hard range when ``constraint="bounded"``.
     constraint : ``"positive"``, ``"nonnegative"``, ``"bounded"`` or ``"real"``.
     neutral : the value at which the effect contributes nothing (used when discovery adds it).
