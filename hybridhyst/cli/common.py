@@ -303,6 +303,30 @@ def _sweep_note(cfg) -> str:
     return f"; the sweep stops here and its later jobs are not run: {again}"
 
 
+# keys and config names that were renamed: a command written for the old name is told the new one
+RENAMED = {"identify.method": "identify.search", "identify.ode_method": "simulation.method",
+           "identify.substeps": "simulation.substeps", "fit.method": "simulation.method",
+           "fit.substeps": "simulation.substeps", "fit.backend": "simulation.backend",
+           "discover.method": "simulation.method", "discover.substeps": "simulation.substeps",
+           "discover.backend": "simulation.backend", "solver.method": "simulation.method",
+           "solver.substeps": "simulation.substeps", "solver.backend": "simulation.backend",
+           "solver.resolve": "resolve", "solver.max_substeps": "max_substeps",
+           "nominal_init.method": "nominal_init.start",
+           "seed000_pinn_identification": "vpptd_pinn_identification", "seed001_vpptd_dynamics": "vpptd_dynamics",
+           "seed002_loop_metrics": "vpptd_loop_metrics", "seed003_hybrid_pinn_piezo": "piezo_hybrid_pinn",
+           "seed003_hybrid_pinn_piezo_training": "piezo_hybrid_pinn_training",
+           "seed004_symmetric_damper": "symmetric_damper", "loss=seed000": "loss=pinn_recipe"}
+
+
+def _renamed_hint(text: str) -> str:
+    """"; renamed: old -> new" for an old key or config name in Hydra's message, else ""."""
+    for old, new in RENAMED.items():
+        if re.search(rf"(?<![\w.]){re.escape(old)}(?![\w])", text) or (old.startswith("loss=") and
+                                                                       "loss/seed000" in text):
+            return f"; {old} was renamed {new}: give {new} instead"
+    return ""
+
+
 def _composition_message(exc: Exception) -> str:
     """One line for Hydra's composition errors (an override of a key that is not in the config, a value that
     cannot be merged, an unknown config group option, a malformed override)."""
@@ -335,6 +359,10 @@ def _composition_message(exc: Exception) -> str:
             # a misspelling: Hydra's "To append to your config use +key=..." would add the misspelt key
             message = re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
             message += f"; did you mean {prefix}{close[0]}?"
+    renamed = _renamed_hint(message)
+    if renamed:
+        message = re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
+        message = re.sub(r"; did you mean [^;]*\?$", "", message) + renamed
     return message
 
 
