@@ -7,6 +7,8 @@
    benchmark oscillator). Then all of them built side by side (``prebuild_models``) against one after another.
 2. ``--main-job``: the main job (``hybridhyst-discover`` on the bundled data) on an empty cache, then again warm,
    back to back, and their ratio.
+3. ``--opt-levels``: the main job built at -O2 and at -O3 (``HYBRIDHYST_OPT``), side by side: for each level an
+   empty cache, one cold run, then two warm runs, the levels alternating; the warm runs' ratio -O3 / -O2.
 
     PYTHONPATH=. python scripts/bench_build.py --main-job --json experiments/performance/bench_build.json --write-readme
 
@@ -106,21 +108,42 @@ def side_by_side(makers: dict) -> dict:
     return {"models": len(built), "together_s": together}
 
 
+def _main_job(env: dict, run_dir: str) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(["hybridhyst-discover", f"hydra.run.dir={run_dir}", "progress=false"], env=env, check=True,
+                   capture_output=True)
+    return time.perf_counter() - t0
+
+
 def run_main_job() -> dict:
     """``hybridhyst-discover`` on an empty cache, then warm, back to back."""
     out = {}
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as runs:
         env = {**os.environ, "HYBRIDHYST_CACHE": cache}
         for kind in ("cold", "warm"):
-            t0 = time.perf_counter()
-            subprocess.run(["hybridhyst-discover", f"hydra.run.dir={runs}/{kind}", "progress=false"], env=env,
-                           check=True, capture_output=True)
-            out[f"{kind}_s"] = time.perf_counter() - t0
+            out[f"{kind}_s"] = _main_job(env, f"{runs}/{kind}")
     out["ratio"] = out["cold_s"] / out["warm_s"]
     return out
 
 
-def run(quick: bool, main_job: bool = False) -> dict:
+def run_opt_levels(levels=("-O2", "-O3"), warm: int = 2) -> dict:
+    """The main job built at each optimisation level: per level an empty cache and a cold run, then ``warm`` warm
+    runs with the levels alternating (so a change in the machine's load falls on both)."""
+    out = {level: {"cold_s": None, "warm_s": []} for level in levels}
+    with tempfile.TemporaryDirectory() as root:
+        envs = {level: {**os.environ, "HYBRIDHYST_CACHE": f"{root}/cache{i}", "HYBRIDHYST_OPT": level}
+                for i, level in enumerate(levels)}
+        for level in levels:
+            out[level]["cold_s"] = _main_job(envs[level], f"{root}/{level}-cold")
+        for k in range(warm):
+            for level in (levels if k % 2 == 0 else levels[::-1]):
+                out[level]["warm_s"].append(_main_job(envs[level], f"{root}/{level}-warm{k}"))
+    base, other = levels[0], levels[-1]
+    out["warm_ratio"] = min(out[other]["warm_s"]) / min(out[base]["warm_s"])
+    return out
+
+
+def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
     torch.set_default_dtype(torch.float64)
     makers = models(quick)
     old = os.environ.get("HYBRIDHYST_CACHE")
@@ -134,6 +157,8 @@ def run(quick: bool, main_job: bool = False) -> dict:
         os.environ["HYBRIDHYST_CACHE"] = old
     if main_job:
         res["main_job"] = run_main_job()
+    if opt_levels:
+        res["opt_levels"] = run_opt_levels()
     return res
 
 
@@ -151,13 +176,20 @@ def markdown(res: dict) -> str:
         m = res["main_job"]
         lines += ["", f"The main job (`hybridhyst-discover`, bundled BRFD data) on an empty cache: "
                       f"{m['cold_s']:.0f} s; then warm: {m['warm_s']:.0f} s; cold / warm = {m['ratio']:.2f}."]
+    if "opt_levels" in res:
+        o = res["opt_levels"]
+        levels = [k for k in o if k.startswith("-O")]
+        runs = "; ".join(f"{lv}: cold {o[lv]['cold_s']:.0f} s, warm {', '.join(f'{w:.1f}' for w in o[lv]['warm_s'])} s"
+                         for lv in levels)
+        lines += ["", f"The main job built at each optimisation level (`HYBRIDHYST_OPT`, side by side, levels "
+                      f"alternating): {runs}. Best warm {levels[-1]} / {levels[0]} = {o['warm_ratio']:.2f}."]
     return "\n".join(lines)
 
 
 def main(argv=None) -> dict:
     from bench_simulate import simple_main
 
-    return simple_main(argv, __doc__, "bench_build", run, markdown, flags=("main_job",))
+    return simple_main(argv, __doc__, "bench_build", run, markdown, flags=("main_job", "opt_levels"))
 
 
 if __name__ == "__main__":
