@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-__all__ = ["CONF_DIR", "from_mapping", "intra_op_threads", "torch_settings"]
+__all__ = ["CONF_DIR", "UnknownOption", "check_fields", "from_mapping", "intra_op_threads", "torch_settings"]
 
 # The Hydra config tree is the repository's top-level ``conf/`` (install with ``pip install -e .`` so that
 # it sits next to the package); HYBRIDHYST_CONF points elsewhere.
@@ -103,23 +103,36 @@ def _cast(value, hint, key: str):
     return value
 
 
+class UnknownOption(TypeError, ValueError):
+    """An option a settings object does not have: a ``TypeError`` for a Python call, a ``ValueError`` (the one-line
+    config error) for an app."""
+
+
+def check_fields(cls, keys, where: str, renamed: Mapping[str, str] | None = None) -> None:
+    """An ``UnknownOption`` for the first of ``keys`` that is not a field of the dataclass ``cls``, naming what it was
+    renamed to (``renamed``) or the closest field: the one check of every settings object's names."""
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    for key in keys:
+        if key in fields:
+            continue
+        if renamed and key in renamed:
+            hint = f"{where}.{key} was renamed: use {renamed[key]}; "
+        else:
+            close = difflib.get_close_matches(str(key), fields, n=1)
+            hint = f"did you mean {where}.{close[0]}? " if close else ""
+        raise UnknownOption(f"unknown config key {where}.{key}: {hint}{where} takes {sorted(fields)}")
+
+
 def from_mapping(cls, mapping: Mapping | None, where: str, **given):
     """An instance of the dataclass ``cls`` from a config block ``mapping`` (plain or OmegaConf) with ``given``
     laid over it: the one typed schema every settings object is read through. A key ``cls`` does not have is a
     one-line error naming ``where.key`` and the closest field; a value of the wrong type names the key and the type
     it needs. Missing keys take the field's default."""
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     hints = typing.get_type_hints(cls)
     values = dict(mapping or {})
     values.update(given)
-    out = {}
-    for key, value in values.items():
-        if key not in fields:
-            close = difflib.get_close_matches(str(key), list(fields), n=1)
-            hint = f"did you mean {where}.{close[0]}? " if close else ""
-            raise ValueError(f"unknown config key {where}.{key}: {hint}{where} takes {sorted(fields)}")
-        out[key] = _cast(_plain(value), hints[key], f"{where}.{key}")
-    return cls(**out)
+    check_fields(cls, values, where)
+    return cls(**{key: _cast(_plain(value), hints[key], f"{where}.{key}") for key, value in values.items()})
 
 
 def _plain(value):

@@ -51,12 +51,11 @@ def start_settings(simulation, extra, where: str):
     ``identify:`` block, with the app's ``simulation`` (``SimulationSettings``: the grid the app then simulates on,
     no step doubling of the search's own), no Fisher analysis, then the app's ``extra`` block (``where``: its
     key)."""
-    block = OmegaConf.load(os.path.join(CONF_DIR, "identify.yaml"))["identify"]
     extra = dict(to_plain(extra) or {})
     if isinstance(extra.get("simulation"), dict):  # keys of the app's simulation changed for the search alone
         extra["simulation"] = type(simulation).from_config({**simulation.as_dict(), **extra["simulation"]},
                                                            f"{where}.simulation")
-    return identify_settings(block, where, **{"fisher": False, "resolve": False, "simulation": simulation, **extra})
+    return identify_settings(None, where, **{"fisher": False, "resolve": False, "simulation": simulation, **extra})
 
 
 def identify_start(model, records, settings, where: str, fallback: str, *, seed: int, progress: bool):

@@ -25,7 +25,6 @@ Every change is judged by ``rule.Acceptance``; the result is typed (``Step``, ``
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -73,12 +72,6 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         Unknown candidate names, a split leaving no training records, records too short to identify.
     """
     given = {k: v for k, v in (("candidates", candidates), ("split", split)) if v is not None}
-    unknown = sorted(set(options) - {f.name for f in dataclasses.fields(DiscoverSettings)})
-    if unknown:
-        renamed = {"backend": "simulation=SimulationSettings(backend=...)", "method": "simulation=SimulationSettings("
-                   "method=...)", "substeps": "simulation=SimulationSettings(substeps=...)"}
-        raise TypeError(f"discover has no option(s) {unknown}" + "".join(f"; use {renamed[k]} for {k}" for k in unknown
-                                                                         if k in renamed))
     settings = (settings or DiscoverSettings()).replace(**given, **options)
     with intra_op_threads(settings.torch_threads):
         loop = Loop(records, nominal, settings)

@@ -8,15 +8,19 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..identify import IdentifySettings
-from ..settings import from_mapping
+from ..identify.settings import RENAMED as IDENTIFY_RENAMED
+from ..settings import check_fields, from_mapping
 from ..simulate import SimulationSettings
 from .leftover import LEFTOVER
 from .rule import check_criterion
+from .validation import VALIDATION
 
 __all__ = ["CROSS_CHECK", "DiscoverSettings"]
 
 CROSS_CHECK = ("confirm", "report", "off")
-VALIDATION = ("records", "loco", "both")
+# options renamed when the simulation settings became one object
+RENAMED = {k: v for k, v in IDENTIFY_RENAMED.items() if k != "method"} | {
+    "method": "simulation=SimulationSettings(method=...)"}
 # the nominal's first fit (``fit_nominal``) before ``identify_options`` are laid over it
 FIRST_FIT = IdentifySettings(pop=24, generations=30, restarts=4, fisher=False)
 
@@ -126,6 +130,8 @@ class DiscoverSettings:
                                     **dict(self.identify_options or {})})
 
     def replace(self, **changes) -> DiscoverSettings:
+        """These settings with ``changes`` (field names; a misspelt or renamed one is a one-line error)."""
+        check_fields(DiscoverSettings, changes, "discover", RENAMED)
         return dataclasses.replace(self, **changes)
 
     @classmethod

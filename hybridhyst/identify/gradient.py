@@ -241,7 +241,7 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
         raise ValueError("fit_gradient got no records; check the data selection")
     start = time.perf_counter()
     data = decimate_all(records, downsample, "gradient fitting")
-    sim = SimulationSettings.of(simulation, REFERENCE.replace(method="rk4"), **overrides)
+    sim = SimulationSettings.of(simulation, REFERENCE, **overrides)
     channels = tuple(input_channels)
 
     def resolved(at: int, refit=None) -> tuple[int, float]:

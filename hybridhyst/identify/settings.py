@@ -4,11 +4,10 @@ identifiability analysis, and how the model is simulated), read from a config bl
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from ..settings import from_mapping
+from ..settings import check_fields, from_mapping
 from ..simulate import SimulationSettings
 
 __all__ = ["SEARCHES", "IdentifySettings"]
@@ -90,7 +89,7 @@ class IdentifySettings:
 
     def replace(self, **changes) -> IdentifySettings:
         """These settings with ``changes`` (field names; a misspelt one is a one-line error)."""
-        check_fields(changes, "identify")
+        check_fields(IdentifySettings, changes, "identify", RENAMED)
         return dataclasses.replace(self, **changes)
 
     @classmethod
@@ -100,24 +99,8 @@ class IdentifySettings:
         return from_mapping(cls, block, where, **given)
 
 
+# the options renamed when the settings became one object: a call with the old name is told the new one
 RENAMED = {"method": "search (the ODE scheme is simulation.method)",
            "ode_method": "simulation=SimulationSettings(method=...)",
            "substeps": "simulation=SimulationSettings(substeps=...)",
            "backend": "simulation=SimulationSettings(backend=...)"}
-
-
-class UnknownOption(TypeError, ValueError):
-    """An option ``IdentifySettings`` does not have: a ``TypeError`` for a Python call, a ``ValueError`` (one-line
-    config error) for an app."""
-
-
-def check_fields(options: Mapping, where: str) -> None:
-    """An ``UnknownOption`` for a key of ``options`` that is not a field of ``IdentifySettings``, naming the field it
-    was renamed to or the closest one."""
-    names = [f.name for f in dataclasses.fields(IdentifySettings)]
-    for key in options:
-        if key in names:
-            continue
-        hint = RENAMED.get(key) or next(iter(difflib.get_close_matches(str(key), names, n=1)), None)
-        raise UnknownOption(f"{where} has no option {key!r}" + (f"; use {hint}" if hint else "")
-                        + f"; its options are {names}")
