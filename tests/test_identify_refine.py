@@ -101,3 +101,26 @@ def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):
     assert exact.cost < 0.1 * fd.history[0]
     assert exact.evaluations < fd.evaluations / 2  # a Jacobian pass counts as one row, not one per coordinate
     assert RecordsProblem(problem.space, list(data), backend="reference").jacobian_rows is None
+
+
+def test_levenberg_marquardt_stops_simulating_rows_that_have_converged():
+    """With ``rtol``, a row whose Gauss–Newton step no longer gains is not simulated again (the run ends when every
+    row has converged), while a row still descending a curved valley goes on: the same optimum as ``rtol=0``
+    for every row, in fewer simulated rows."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([-3.0, -3.0], [3.0, 3.0])
+    calls = []
+
+    def residual_rows(X):  # Rosenbrock's valley as residuals: minimum at (1, 1)
+        calls.append(X.shape[0])
+        return torch.stack([10.0 * (X[:, 1] - X[:, 0] ** 2), 1.0 - X[:, 0]], dim=1)
+
+    starts = torch.tensor([[1.0 + 1e-9, 1.0], [-1.2, 1.0], [0.5, 2.0]], dtype=torch.float64)
+    every = levenberg_marquardt(residual_rows, box, starts, iters=200, progress=False)
+    n_every = sum(calls)
+    calls.clear()
+    converged = levenberg_marquardt(residual_rows, box, starts, iters=200, progress=False, rtol=1e-6)
+    assert torch.allclose(converged.X, every.X, atol=1e-5) and torch.allclose(converged.X[1], torch.ones(2, dtype=torch.float64), atol=1e-5)
+    assert sum(calls) < n_every / 2 and converged.evaluations < every.evaluations
+    assert len(converged.history) < len(every.history)  # the run ended when every row had converged

@@ -72,7 +72,7 @@ SECTION_SOURCES = {
     "Your own data": ["examples/own_data/make_example.py", "examples/own_data/damper_loops.csv"],
     "The apps": ["conf/data/fit/brfd.yaml"],
     "Discovery": ["conf/discover.yaml", "conf/data/discover/brfd.yaml"],
-    "How the discovery loop works": ["conf/discover.yaml"],
+    "How the discovery loop works": ["conf/discover.yaml", "hybridhyst/discover/fitting.py"],
     "Fitting a nominal model": ["conf/fit.yaml", "conf/data/fit/brfd.yaml"],
     "Your own measurements": ["examples/own_data/make_example.py", "examples/own_data/damper_loops.csv",
                               "conf/fit.yaml", "conf/discover.yaml", "conf/train.yaml", "conf/data/table.yaml"],

@@ -20,6 +20,7 @@ from .space import Box
 
 __all__ = ["RefineResult", "levenberg_marquardt", "refine"]
 
+STALL_DAMPING = 1e6  # levenberg_marquardt(rtol > 0): a row damped this much (from 1e-3) only refuses steps
 _EDGE = 1e-6  # start points are moved this far (unit-cube) inside the box, where the logit is finite
 
 
@@ -199,7 +200,7 @@ def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tenso
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
                         iters: int = 30, h: float = 1e-6, target: float | None = None,
                         free: torch.Tensor | None = None, progress: bool = True,
-                        jacobian_rows: Callable | None = None) -> RefineResult:
+                        jacobian_rows: Callable | None = None, rtol: float = 0.0) -> RefineResult:
     """Batched Levenberg–Marquardt on the box logits: each row its own damping, one call per iteration.
 
     ``residual_rows(X (K, D)) -> (K, M)`` residuals; the cost is their mean square. Gauss–Newton steps are
@@ -210,6 +211,10 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     simulated rows either way (a Jacobian pass as one).
     ``free`` : ``(D,)`` booleans, the coordinates that may move (default all); the others keep each row's
     start value (the discovery loop re-balances a fitted model against a new effect's start this way).
+    ``rtol`` : a row is converged, and simulated no more, once a nearly undamped accepted step (damping ≤ 1)
+    lowers its cost by less than ``rtol`` (relative), or once refusals have grown its damping to
+    ``STALL_DAMPING``; the run ends when every row has. 0 (the default) keeps every row to the last
+    iteration; the discovery loop's fits use 1e-6 (``discover.fitting.LM_RTOL``).
     """
     starts = torch.as_tensor(starts, dtype=torch.float64).reshape(-1, space.dim)
     W = torch.logit(space.to_unit(starts).clamp(_EDGE, 1 - _EDGE))
@@ -225,6 +230,7 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     else:
         r, J, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W, free, h)
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
+    active = torch.ones(K, dtype=torch.bool)  # rows not yet converged (see rtol)
     history, evals = [float(cost.min())], K * (F + 1 if jacobian_rows is None else 1)
     if jacobian_rows is not None:
         evals += differenced * F
@@ -232,22 +238,32 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
         for _ in range(iters):
             if target is not None and float(cost.min()) <= target:
                 break
-            step = torch.zeros_like(W)
-            step[:, free] = _lm_step(J, r, lam)
-            r_new = _lm_residuals(residual_rows, space, W + step)
+            rows = torch.nonzero(active).reshape(-1)
+            if rows.numel() == 0:
+                break
+            step = torch.zeros(rows.numel(), D, dtype=W.dtype)
+            step[:, free] = _lm_step(J[rows], r[rows], lam[rows])
+            r_new = _lm_residuals(residual_rows, space, W[rows] + step)
             new = r_new.square().mean(dim=1).nan_to_num(nan=math.inf)
-            ok = new < cost
-            evals += K
+            ok = new < cost[rows]
+            evals += rows.numel()
+            gain = (cost[rows] - new) / cost[rows].clamp_min(1e-300)
             if bool(ok.any()):  # Jacobians only where the step was accepted
-                W[ok] = W[ok] + step[ok]
-                r[ok], cost[ok] = r_new[ok], new[ok]
+                acc = rows[ok]
+                W[acc] = W[acc] + step[ok]
+                r[acc], cost[acc] = r_new[ok], new[ok]
                 if jacobian_rows is None:
-                    J[ok] = _lm_jacobian(residual_rows, space, W[ok], r[ok], h, free)
+                    J[acc] = _lm_jacobian(residual_rows, space, W[acc], r[acc], h, free)
                     evals += int(ok.sum()) * F
                 else:
-                    _, J[ok], differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W[ok], free, h)
+                    _, J[acc], differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W[acc], free, h)
                     evals += int(ok.sum()) + differenced * F
-            lam = torch.where(ok, lam / 3, lam * 4).clamp(1e-12, 1e12)
+            # converged rows: a negligible gain from a nearly undamped (Gauss–Newton) step, or a damping only
+            # refusals reach
+            small = ok & (gain < rtol) & (lam[rows] <= 1.0)
+            lam[rows] = torch.where(ok, lam[rows] / 3, lam[rows] * 4).clamp(1e-12, 1e12)
+            if rtol > 0:
+                active[rows] = ~(small | (lam[rows] >= STALL_DAMPING))
             history.append(float(cost.min()))
             bar.update(1)
             bar.set_postfix(cost=f"{history[-1]:.4g}")
