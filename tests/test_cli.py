@@ -302,3 +302,15 @@ def test_what_an_app_says_reaches_the_runs_log_file_once_and_bars_stay_off_a_fil
 
     assert isinstance(progress(range(3), "rank candidates"), Lines)
     assert progress(range(3), "rank candidates", enabled=False).disable
+
+
+def test_the_edge_line_groups_a_networks_weights():
+    """Coordinates at an edge of the search box are named one by one, but a network's weights (a parameter function
+    of kind neural: name[i]) as one entry with counts, so that the line stays readable."""
+    from hybridhyst.cli.common import edge_line
+
+    edges = {"viscous.c": "lower", **{f"kappa.net.head.weight[{i}]": ("lower" if i % 3 else "upper") for i in range(6)}}
+    line = edge_line(edges, "identify.bounds")
+    assert "viscous.c (lower edge)" in line
+    assert "kappa.net.head.weight[...] (6 entries: 4 at the lower edge, 2 at the upper)" in line
+    assert "weight[3]" not in line

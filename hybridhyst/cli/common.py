@@ -207,7 +207,12 @@ def config_error_message(exc: Exception, cfg=None) -> str:
 def edge_line(at_bounds: dict, how: str) -> str:
     """The sentence for coordinates that ended at an edge of identification's search box (``at_bounds``:
     ``{name: "lower" | "upper"}``); ``how``: the app's keys that widen the box."""
-    edges = ", ".join(f"{n} ({side} edge)" for n, side in at_bounds.items())
+    groups: dict[str, list[str]] = {}  # a network's weights, name[i], are one entry: "name[...] (k entries: ...)"
+    for n, side in at_bounds.items():
+        groups.setdefault(re.sub(r"\[\d+\]$", "[...]", n), []).append(side)
+    edges = ", ".join(f"{n} ({sides[0]} edge)" if len(sides) == 1 and not n.endswith("[...]") else
+                      f"{n} ({len(sides)} entries: {sides.count('lower')} at the lower edge, "
+                      f"{sides.count('upper')} at the upper)" for n, sides in groups.items())
     return (f"At the edge of the search box: {edges}. The box, not the data, set these values: widen it ({how}) "
             "or start nearer (the value in the model config).")
 
