@@ -142,7 +142,7 @@ def run(name: str, data: Path, scratch: Path) -> dict:
         raise SystemExit(f"{name} failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
     metrics = json.loads((run_dir / "metrics.json").read_text())
     shown = ["hybridhyst-train", *[o for o in args[3:] if not o.startswith(("hydra.run.dir", "progress="))]]
-    code = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    code = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True, text=True).stdout
     return {"name": name, "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), "code": code.strip(),
             "command": " ".join(shlex.quote(a).replace(str(data), "mr_damper_current.csv")
                                                for a in shown),
@@ -155,7 +155,8 @@ def _per(part: dict) -> str:
 
 def _provenance(summary: dict) -> str:
     """"<date>; commit <c>", or per commit the dates of the rows run there (``--only`` keeps older rows)."""
-    runs = [(r.get("code", summary.get("code")), r.get("date", summary.get("date"))) for r in summary["runs"]]
+    runs = [(r.get("code") or summary.get("code") or "unknown", r.get("date") or summary.get("date") or "")
+            for r in summary["runs"]]
     codes = list(dict.fromkeys(c for c, _ in runs))
     if len(codes) == 1:
         return f"{max(d for _, d in runs)}; commit {codes[0]}"

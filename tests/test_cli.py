@@ -314,3 +314,4 @@ def test_the_edge_line_groups_a_networks_weights():
     assert "viscous.c (lower edge)" in line
     assert "kappa.net.head.weight[...] (6 entries: 4 at the lower edge, 2 at the upper)" in line
     assert "weight[3]" not in line
+    assert "head.bias[0] (upper edge)" in edge_line({"head.bias[0]": "upper"}, "identify.bounds")  # one: its name

@@ -49,6 +49,32 @@ def test_the_virgin_loading_is_the_bouc_wen_n2_solution():
     assert mr.damping(1.5) > mr.damping(0.0) and mr.hysteretic(1.5) > mr.hysteretic(0.0)  # the current matters
 
 
+def test_the_unloading_branch_is_the_bouc_wen_n2_solution():
+    """After the first reversal (ẋ < 0, z > 0) n = 2 gives dz/dx = 1 + (β − γ) z² (β ≠ γ tells the terms apart):
+    with k² = β − γ > 0, z = tan(k (x − x_r) + arctan(k z_r)) / k from the reversal (x_r, z_r), until z reaches 0."""
+    current, freq, amp = 1.0, 1.0, 10.0
+    t, x, force = mr.clean(current, freq, amp)
+    v = amp * 2 * np.pi * freq * np.cos(2 * np.pi * freq * t)
+    z = (force - mr.damping(current) * v - mr.K * x) / mr.hysteretic(current)
+    k = np.sqrt(mr.BETA - mr.GAMMA)
+    i_r = int(np.argmin(np.abs(t - 1 / (4 * freq))))  # the reversal at x = amp (a sample exactly)
+    angle = k * (x - x[i_r]) + np.arctan(k * z[i_r])
+    exact = np.tan(angle) / k
+    branch = (t > t[i_r]) & (t < 3 / (4 * freq)) & (angle > 0.01)  # from the reversal until z = 0
+    assert branch.sum() > 20 and np.abs(z[branch] - exact[branch]).max() < 1e-6
+
+
+def test_the_generator_s_laws_noise_and_split():
+    assert mr.damping(0.0) == 0.8 and abs(mr.damping(50.0) - 2.8) < 1e-12
+    assert mr.hysteretic(0.0) == 20.0 and abs(mr.hysteretic(50.0) - 80.0) < 1e-12
+    assert set(mr.HELD_OUT) < set(mr.CURRENTS)
+    rng = np.random.default_rng(1)
+    noise = np.concatenate([mr.record(0.0, 1.0, 1e-9, rng)[2] - mr.clean(0.0, 1.0, 1e-9)[2] for _ in range(20)])
+    assert abs(noise.std() - mr.NOISE_SD) < 0.15 * mr.NOISE_SD
+    lag1 = np.corrcoef(noise[:-1], noise[1:])[0, 1]
+    assert abs(lag1 - mr.NOISE_AR) < 0.05
+
+
 def test_the_readme_block_is_what_the_committed_summary_renders():
     summary = json.loads((mr.FOLDER / "summary.json").read_text())
     text = (mr.FOLDER / "README.md").read_text()

@@ -207,12 +207,12 @@ def config_error_message(exc: Exception, cfg=None) -> str:
 def edge_line(at_bounds: dict, how: str) -> str:
     """The sentence for coordinates that ended at an edge of identification's search box (``at_bounds``:
     ``{name: "lower" | "upper"}``); ``how``: the app's keys that widen the box."""
-    groups: dict[str, list[str]] = {}  # a network's weights, name[i], are one entry: "name[...] (k entries: ...)"
+    groups: dict[str, list[tuple[str, str]]] = {}  # a network's weights, name[i], are one entry with counts
     for n, side in at_bounds.items():
-        groups.setdefault(re.sub(r"\[\d+\]$", "[...]", n), []).append(side)
-    edges = ", ".join(f"{n} ({sides[0]} edge)" if len(sides) == 1 and not n.endswith("[...]") else
-                      f"{n} ({len(sides)} entries: {sides.count('lower')} at the lower edge, "
-                      f"{sides.count('upper')} at the upper)" for n, sides in groups.items())
+        groups.setdefault(re.sub(r"\[\d+\]$", "[...]", n), []).append((n, side))
+    edges = ", ".join(f"{members[0][0]} ({members[0][1]} edge)" if len(members) == 1 else
+                      f"{group} ({len(members)} entries: {sum(s == 'lower' for _, s in members)} at the lower edge, "
+                      f"{sum(s == 'upper' for _, s in members)} at the upper)" for group, members in groups.items())
     return (f"At the edge of the search box: {edges}. The box, not the data, set these values: widen it ({how}) "
             "or start nearer (the value in the model config).")
 
