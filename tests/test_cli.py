@@ -258,6 +258,7 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
     # a key or a name that was renamed: the new one
     ("identify", "identify.method=de", "identify.method was renamed identify.search: give identify.search instead"),
     ("study", "experiment=seed001_vpptd_dynamics", "seed001_vpptd_dynamics was renamed vpptd_dynamics"),
+    ("train", "loss=seed000", "loss=seed000 was renamed loss=pinn_recipe"),  # Hydra writes it loss/seed000
     # table's split.select is null: Hydra calls it missing
     ("fit", ("data=table", "~split.select"),
      "(or it is null: nothing to delete); to change it, drop '~split.select' and give split.select=<value> instead"),

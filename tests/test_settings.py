@@ -48,3 +48,6 @@ def test_a_renamed_option_names_its_new_name_in_a_python_call():
         discover([], None, backend="reference")
     with pytest.raises(UnknownOption, match="did you mean discover.margin"):
         DiscoverSettings().replace(margn=0.05)
+    with pytest.raises(UnknownOption, match="did you mean simulation.substeps"):
+        SimulationSettings().replace(substep=4)
+    assert SimulationSettings().at(4) == SimulationSettings(substeps=4)

@@ -324,12 +324,18 @@ RENAMED = {"identify.method": "identify.search", "identify.ode_method": "simulat
 
 
 def _renamed_hint(text: str) -> str:
-    """"; renamed: old -> new" for an old key or config name in Hydra's message, else ""."""
+    """"; renamed: old -> new" for an old key or config name in Hydra's message (a ``group=option`` as Hydra writes
+    it, ``group/option``, too), else ""."""
     for old, new in RENAMED.items():
-        if re.search(rf"(?<![\w.]){re.escape(old)}(?![\w])", text) or (old.startswith("loss=") and
-                                                                       "loss/seed000" in text):
+        if re.search(rf"(?<![\w.]){re.escape(old)}(?![\w])", text) or ("=" in old and old.replace("=", "/") in text):
             return f"; {old} was renamed {new}: give {new} instead"
     return ""
+
+
+def _without_append_hint(message: str) -> str:
+    """Hydra's message without its "To append to your config use +key=...": the key is misspelt or renamed, and
+    appending it would add the wrong key."""
+    return re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
 
 
 def _composition_message(exc: Exception) -> str:
@@ -362,11 +368,11 @@ def _composition_message(exc: Exception) -> str:
             full = str(getattr(cause, "full_key", key))
             prefix = full.rsplit(".", 1)[0] + "." if "." in full else ""
             # a misspelling: Hydra's "To append to your config use +key=..." would add the misspelt key
-            message = re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
+            message = _without_append_hint(message)
             message += f"; did you mean {prefix}{close[0]}?"
     renamed = _renamed_hint(message)
     if renamed:
-        message = re.sub(r"; To append to your config use \S+?=.*?(?= \(|;|$)", "", message, count=1)
+        message = _without_append_hint(message)
         message = re.sub(r"; did you mean [^;]*\?$", "", message) + renamed
     return message
 

@@ -215,7 +215,7 @@ class InterruptCheckpoint(Callback):
     def on_exception(self, trainer, pl_module, exception) -> None:
         if isinstance(exception, RunInterrupted):
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            trainer.save_checkpoint(self.path, weights_only=False)  # the whole state: resumable
+            trainer.save_checkpoint(self.path)  # the whole state, optimizer included (loaded with weights_only)
 
 
 def finished_run(cfg: DictConfig) -> dict | None:

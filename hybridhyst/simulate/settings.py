@@ -7,7 +7,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from ..settings import from_mapping
+from ..settings import check_fields, from_mapping
 
 __all__ = ["SimulationSettings"]
 
@@ -52,9 +52,11 @@ class SimulationSettings:
 
     def at(self, substeps: int) -> SimulationSettings:
         """The same settings at ``substeps`` sub-steps per sample interval."""
-        return dataclasses.replace(self, substeps=int(substeps))
+        return self.replace(substeps=int(substeps))
 
     def replace(self, **changes) -> SimulationSettings:
+        """These settings with ``changes`` (field names; a misspelt one is a one-line error)."""
+        check_fields(SimulationSettings, changes, "simulation")
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, Any]:
