@@ -92,6 +92,56 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
 
 
+def test_the_start_state_of_an_effect_just_added_is_offered_at_once_and_its_refusal_is_said_as_such(float64):
+    """``Loop.starts_of_added``: records that start with a gap closed (an exact gap + Dahl integration, numpy) and
+    a spring nominal. The loop adds the clearance, then offers its start state at once, as a step of its own
+    (``when``: ``AFTER_ADDED``), not after a whole ranking of the next step; it is accepted, q0 recovered. A start
+    offer the rule refuses is reported as that, not as the candidate the loop stopped at."""
+    from dataclasses import replace
+
+    from hybridhyst.discover.report import report_markdown
+    from hybridhyst.discover.result import AFTER_ADDED
+    from hybridhyst.physics.effects import LinearStiffness
+    from hybridhyst.physics.models import Constitutive
+    from hybridhyst.testbed.generators import clearance_dahl
+
+    r, sigma0, up, down, noise = 0.06, 15.0, 0.5, 0.7, 0.01
+    q0 = -(r + down / sigma0)
+    rng = np.random.default_rng(5)
+    records = []
+    for amp in (0.5, 0.75, 1.0):
+        t = np.arange(0, 2.0, 1 / 150)
+        fine = np.linspace(0, 2.0, 20 * len(t) - 19)
+        x_fine = -amp * np.cos(2 * np.pi * fine)
+        y = 2 * x_fine[::20] + clearance_dahl(x_fine, r, sigma0, up, down, q0)[::20]
+        records.append(Record(f"a{amp}", t, x_fine[::20], y + noise * rng.standard_normal(len(t)),
+                              conditions={"amplitude_in": amp}))
+    res = discover(records, Constitutive({"spring": LinearStiffness(k=2.0)}).double(), candidates=["clearance"],
+                   split={"held_out": {"amplitude_in": [0.75]}}, conditions=False, noise_sd=noise, **FAST)
+    steps = res.report["steps"]
+    assert [s["effect"] for s in steps[:2]] == ["clearance", "clearance.start"]
+    assert "when" not in steps[0] and steps[1]["when"] == AFTER_ADDED
+    assert steps[1]["parameters"]["clearance.q0"]["value"] == pytest.approx(q0, rel=0.1)
+    refused = {**steps[1], "accepted": False}
+    text = report_markdown(replace(res, report={**res.report, "steps": steps[:1], "rejected": [refused]}), "t", "N")
+    assert f"The start state **clearance.start**, offered {AFTER_ADDED}, was not taken" in text
+    assert "The loop stopped at the best remaining candidate, **clearance.start**" not in text
+
+
+def test_a_fit_leaves_sub_steps_its_model_no_longer_needs(float64):
+    """Sub-steps found by doubling only rise; a model whose stiff element has gone (removed, or given up by its
+    fit) is refitted at the fewest that resolve it (``polish``, ``resolve``: ``simulate.coarsest_substeps``), so
+    the later candidates are not fitted at steps the model no longer needs."""
+    from hybridhyst.discover.fitting import polish
+    from hybridhyst.physics.effects import LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+
+    records = _damper_records(NOISE)
+    model = Constitutive({"spring": LinearStiffness(k=1.0), "damper": Viscous(c=0.1)}).double()
+    fit = polish(model, records, SimulationSettings(substeps=16), 25, 10.0)
+    assert fit.substeps == 1 and math.isfinite(fit.sse)
+
+
 def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_another(float64):
     """``workers``: each candidate's fit in a thread of its own; the compiled loops release the GIL, and every fit
     is deterministic, so the steps, refusals, parameters and errors are the same numbers."""

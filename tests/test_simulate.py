@@ -242,3 +242,25 @@ def test_simulate_resolved_takes_the_steps_a_stiffer_record_needs(float64):
     (same,), s_same, _ = simulate_resolved(model, [fitted], substeps=s, **opts)
     with torch.no_grad():
         assert s_same == s and torch.equal(same, simulate(model, [fitted], substeps=s, **opts)[0])
+
+
+def test_coarsest_substeps_halves_back_to_the_steps_a_model_needs(float64):
+    """``coarsest_substeps``: step doubling downwards. A Dahl bristle that needs several sub-steps on a ±4 sine,
+    given more, is halved back to the count doubling from one finds (every halving judged as a doubling is);
+    the same count is kept; a model without a stiff state (a spring and a damper) goes down to one."""
+    from hybridhyst.data import Record
+    from hybridhyst.physics.effects import Dahl, LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+    from hybridhyst.simulate import coarsest_substeps, resolved_substeps
+
+    t = np.arange(0.0, 2.0, 0.01)
+    record = Record(name="A4", t=t, x=4.0 * np.sin(2 * np.pi * t), y=np.zeros_like(t))
+    opts = {"method": "rk4", "backend": "reference"}
+    stiff = Constitutive({"dahl": Dahl(sigma0=100.0, Fc=1.0)}, units={"t": "s", "x": "in", "F": "kip"})
+    needed, _ = resolved_substeps(stiff, [record], substeps=1, max_substeps=64, **opts)
+    assert 1 < needed < 32
+    assert coarsest_substeps(stiff, [record], 32, **opts) == needed
+    assert coarsest_substeps(stiff, [record], needed, **opts) == needed
+    assert coarsest_substeps(stiff, [record], 1, **opts) == 1
+    plain = Constitutive({"spring": LinearStiffness(k=2.0), "damper": Viscous(c=0.1)})
+    assert coarsest_substeps(plain, [record], 16, **opts) == 1

@@ -20,7 +20,7 @@ from ..data.records import RecordSet
 from ..data.splits import Split
 from ..discover import DiscoverSettings, discover
 from ..discover.report import check_discovery, write_discovery
-from ..discover.result import disagreement_line
+from ..discover.result import AFTER_ADDED, disagreement_line
 from .common import (
     CONF_DIR,
     check_app,
@@ -70,7 +70,8 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     u = f" {unit}" if unit else ""
     added = [name(s) for s in report.get("steps") or [] if s.get("accepted", True)]
     removed = [str(s["effect"]) for s in report.get("removed") or []]
-    rejected = [name(s) for s in report.get("rejected") or [] if s.get("kind") != "trend"]
+    rejected = [name(s) for s in report.get("rejected") or [] if s.get("kind") != "trend"
+                and s.get("when") != AFTER_ADDED]  # the best candidate of the step that stopped the loop
     line = "discovery: added " + ("; ".join(added) if added else "nothing")
     line += f"; removed {', '.join(removed)}" if removed else ""
     line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""

@@ -16,7 +16,7 @@ import torch
 from ..identify.problem import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
-from ..simulate import SimulationSettings, resolved_substeps
+from ..simulate import SimulationSettings, coarsest_substeps, resolved_substeps
 from ..simulate.fast import prebuild_models
 
 __all__ = ["Fit", "at", "fit_candidate", "fit_candidates", "polish", "prebuild", "refit_on", "search_points",
@@ -168,8 +168,14 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
 def polish(model, train, sim, lm_steps: int, box_factor: float, step_doubling: bool = True) -> Fit:
     """Refit the current model (every coordinate, LM from its values) so that its training error is
     converged the same way each candidate's is: a candidate then gets credit only for what it adds, not
-    for finishing the previous fit. The model is updated in place. ``step_doubling=False`` keeps ``sim``'s sub-steps
-    (no step doubling: a refit of an already resolved model on part of its records)."""
+    for finishing the previous fit. The model is updated in place. With ``step_doubling``, the sub-steps are first
+    halved while the model at its values stays resolved (``simulate.coarsest_substeps``: a change to the model,
+    such as a stiff element removed or given up, may have made ``sim``'s unnecessary, and every later candidate
+    is fitted at the current model's), then doubled after the fit while it needs finer ones (``resolve``).
+    ``step_doubling=False`` keeps ``sim``'s sub-steps (a refit of an already resolved model on part of its
+    records)."""
+    if step_doubling and sim.substeps > 1:
+        sim = sim.at(coarsest_substeps(model, train, sim.substeps, settings=sim))
     space = _space(model, train, factor=box_factor)
     problem = _problem(space, train, sim, sim.substeps)
     x0 = space.initial().clamp(space.lower, space.upper)
@@ -194,7 +200,10 @@ def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> F
     the fitted response by more than ``simulate.api.RESOLVED``, double the sub-steps per sample (at most
     ``MAX_SUBSTEPS``) and refit from the fitted point. A stiff state (a presliding Dahl or LuGre bristle, a
     sharp Bouc–Wen loop) fitted on a coarse grid is otherwise shaped by the integrator's error, not by the
-    data; the user never chooses sub-steps per data set."""
+    data; the user never chooses sub-steps per data set. The doubling starts from the fewest sub-steps that
+    resolve the fitted point (``simulate.coarsest_substeps``, halving ``sim``'s): a fit that gave a stiff element
+    up (an element replaced by its special case, a level fitted away) leaves the finer steps it was fitted at to
+    no later fit."""
     space.to_model(x)
 
     def refit(substeps: int) -> None:
@@ -204,7 +213,9 @@ def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> F
             x = lm.x
         space.to_model(x)
 
-    substeps, _ = resolved_substeps(space.model, train, settings=sim, max_substeps=MAX_SUBSTEPS, refit=refit)
+    coarse = coarsest_substeps(space.model, train, sim.substeps, settings=sim)
+    substeps, _ = resolved_substeps(space.model, train, settings=sim, substeps=coarse, max_substeps=MAX_SUBSTEPS,
+                                    refit=refit)
     sse = float(_sse(_problem(space, train, sim, substeps), x[None])[0])
     return _fit(space, x, sse, substeps) if math.isfinite(sse) else None
 

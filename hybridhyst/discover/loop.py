@@ -39,13 +39,13 @@ from ..physics.models import DrivenOscillator, conditions_used
 from ..progress import progress as progress_bar
 from ..settings import intra_op_threads
 from ..simulate import SimulationSettings
-from .candidates import Scales, library_candidates
+from .candidates import Scales, library_candidates, start_candidates
 from .conditions import as_records, control_ranges, trend_conditions
 from .diagnose import diagnose
 from .finish import finish
 from .fitting import Fit, fit_candidates, polish, prebuild, sse_at
 from .fitting import at as _at
-from .result import Change, DiscoveryResult, Step, parameter_values
+from .result import AFTER_ADDED, Change, DiscoveryResult, Step, parameter_values
 from .rule import Acceptance, Judged, information_criterion
 from .selection import simplify
 from .settings import DiscoverSettings
@@ -300,8 +300,9 @@ class Loop:
                 return
         self.stopped = "max_steps"  # every step accepted an effect: the cap ended the loop, not the rule
 
-    def _effect_step(self, cands) -> bool:
-        """One step over ``cands``; whether a candidate was accepted."""
+    def _effect_step(self, cands, when: str | None = None) -> bool:
+        """One step over ``cands``; whether a candidate was accepted. ``when``: said in the step's record (a step
+        offered outside the greedy ranking: ``AFTER_ADDED``)."""
         o, fit = self.options, self.fit
         if self.sim.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
             prebuild(cands, fit.model, tuple(sorted(self.controls)))
@@ -327,7 +328,8 @@ class Loop:
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
             "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
                          for f in finals}},
-            new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps)
+            new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps,
+            **({"when": when} if when else {}))
         if accepted:
             polished = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
             step.accepted = accepted = self._confirmed(step, polished)
@@ -344,7 +346,21 @@ class Loop:
         self.now = self.judge(self.fit)
         self.removals()
         self.trends_of_added(keys)
+        self.starts_of_added(keys)
         return True
+
+    def starts_of_added(self, before: set[str]) -> None:
+        """The start state of each effect added since the model had effects ``before`` (``candidates.
+        start_candidates``: its state at a fitted value when every record starts), offered at once as a step of its
+        own, as its trends are: a record that starts away from the element's rest leaves a transient, and until the
+        start state is fitted an element stands in for it (kept, or added by the next step), fitted with the whole
+        ranking of the next step. Refused here, it stays a candidate of the later steps."""
+        if not self.options.start_states:
+            return
+        added = set(self.fit.model.effects) - set(before)
+        for cand in start_candidates(self.fit.model, self.scales):
+            if cand.meta["key"] in added and cand.name not in self.tried:
+                self._effect_step([cand], when=AFTER_ADDED)
 
     def swaps(self) -> None:
         """Each added effect against the close calls of its step, on the final model (once; the model has been

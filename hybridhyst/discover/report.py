@@ -15,7 +15,7 @@ from ..report.markdown import model_reuse_sentence
 from .diagnose import FEATURE_UNITS, FEATURES, features
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
-from .result import disagreement_line
+from .result import AFTER_ADDED, disagreement_line
 
 __all__ = ["change_sentence", "check_discovery", "diverged_records", "write_discovery"]
 
@@ -226,7 +226,9 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         refused = disagreement_line(s, unit) if (s.get("cross_check") or {}).get("refused") else None
         if refused:
             what = (f"The condition trends **{s['effect']}** were refused by the cross-check" if s["kind"] == "trend"
-                    else f"The loop stopped at **{s['effect']}**, refused by its cross-check")
+                    else f"The start state **{s['effect']}**, offered {AFTER_ADDED}, was refused by its cross-check"
+                    if s.get("when") == AFTER_ADDED else f"The loop stopped at **{s['effect']}**, refused by its "
+                    "cross-check")
             lines += [f"{what}: {refused}.", ""]
             continue
         if s.get("outcome") == "constant":
@@ -235,6 +237,8 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
             continue
         moved = f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit}{_other_parts(ev, unit, True)}"
         what = (f"The condition trends, **{s['effect']}**, were not taken" if s["kind"] == "trend" else
+                f"The start state **{s['effect']}**, offered {AFTER_ADDED}, was not taken"
+                if s.get("when") == AFTER_ADDED else
                 f"The loop stopped at the best remaining candidate, **{s['effect']}**")
         lines += [f"{what}: {scored} RMSE {moved} (margin {r['settings']['margin']:.0%} required) and the "
                   f"information criterion {_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]

@@ -10,7 +10,9 @@ import torch
 
 from .validation import parts
 
-__all__ = ["Change", "DiscoveryResult", "Step", "disagreement_line", "parameter_values"]
+__all__ = ["AFTER_ADDED", "Change", "DiscoveryResult", "Step", "disagreement_line", "parameter_values"]
+
+AFTER_ADDED = "right after its effect was added"  # a step's ``when``: a start state offered outside the ranking
 
 
 @dataclass

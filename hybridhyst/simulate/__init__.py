@@ -1,5 +1,6 @@
 """The only place where time is integrated (docs/architecture.md)."""
 
+from .api import coarsest_substeps as coarsest_substeps
 from .api import jacobian_covers as jacobian_covers
 from .api import resolved_substeps as resolved_substeps
 from .api import simulate as simulate
@@ -8,5 +9,5 @@ from .api import simulate_resolved as simulate_resolved
 from .fixed import ORDER as ORDER
 from .settings import SimulationSettings as SimulationSettings
 
-__all__ = ["ORDER", "SimulationSettings", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian",
-           "simulate_resolved"]
+__all__ = ["ORDER", "SimulationSettings", "coarsest_substeps", "jacobian_covers", "resolved_substeps", "simulate",
+           "simulate_jacobian", "simulate_resolved"]

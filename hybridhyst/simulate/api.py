@@ -17,7 +17,8 @@ from .fixed import integrate_fixed
 from .inputs import delayed, input_sample, with_controls, with_rates
 from .settings import SimulationSettings
 
-__all__ = ["REFERENCE", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian", "simulate_resolved"]
+__all__ = ["REFERENCE", "coarsest_substeps", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian",
+           "simulate_resolved"]
 
 # simulate()'s settings where none are given: the plain PyTorch loop (the oracle), the solver's default scheme
 REFERENCE = SimulationSettings(method=None, backend="reference")
@@ -345,10 +346,7 @@ def resolved_substeps(model, records, *, substeps: int | None = None, max_subste
         coarse = response(s)
         while True:
             fine = response(2 * s)
-            scale = float(fine.pow(2).mean().sqrt())
-            change = float((coarse - fine).pow(2).mean().sqrt()) / max(scale, 1e-300)
-            if not math.isfinite(change) or not math.isfinite(scale):
-                change = math.inf
+            change = _change(coarse, fine)
             if change <= tol or 2 * s > max_substeps:
                 return s, change
             s, coarse = 2 * s, fine
@@ -362,6 +360,35 @@ def resolved_substeps(model, records, *, substeps: int | None = None, max_subste
         at = s
         s, change = doubled(at)
     return s, change
+
+
+def coarsest_substeps(model, records, substeps: int, *, tol: float = RESOLVED, **kwargs) -> int:
+    """Step doubling downwards: the fewest sub-steps per sample, halving from ``substeps``, at which every halving
+    changed the simulated response of ``records`` by at most ``tol`` (as ``resolved_substeps`` judges a
+    doubling). A model fitted at fine steps may no longer need them after a change (a stiff element removed or
+    given up): sub-steps found by doubling only ever rise. ``kwargs`` go to ``simulate``. Costs one simulation at
+    ``substeps`` and one per halving tried (no gradients)."""
+    def response(s: int) -> torch.Tensor:
+        with torch.no_grad():
+            return torch.cat([y.reshape(-1) for y in simulate(model, records, substeps=s, **kwargs)])
+
+    s = max(int(substeps), 1)
+    if s == 1:
+        return s
+    fine = response(s)
+    while s % 2 == 0:
+        coarse = response(s // 2)
+        if not _change(coarse, fine) <= tol:
+            break
+        s, fine = s // 2, coarse
+    return s
+
+
+def _change(coarse: torch.Tensor, fine: torch.Tensor) -> float:
+    """The relative RMS change between two responses (``inf`` where either is not finite)."""
+    scale = float(fine.pow(2).mean().sqrt())
+    change = float((coarse - fine).pow(2).mean().sqrt()) / max(scale, 1e-300)
+    return change if math.isfinite(change) and math.isfinite(scale) else math.inf
 
 
 def simulate_resolved(model, records, *, substeps: int | None = None, max_substeps: int = MAX_SUBSTEPS_SCORED,
