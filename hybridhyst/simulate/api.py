@@ -336,11 +336,7 @@ def resolved_substeps(model, records, *, substeps: int | None = None, max_subste
     sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
     """
     def response(s: int) -> torch.Tensor:
-        with torch.no_grad():
-            out = simulate(model, records, substeps=s, **kwargs)
-        if outputs is not None:
-            outputs[s] = out
-        return torch.cat([y.reshape(-1) for y in out])
+        return _response(model, records, s, kwargs, outputs)
 
     def doubled(s: int) -> tuple[int, float]:
         coarse = response(s)
@@ -368,20 +364,26 @@ def coarsest_substeps(model, records, substeps: int, *, tol: float = RESOLVED, *
     doubling). A model fitted at fine steps may no longer need them after a change (a stiff element removed or
     given up): sub-steps found by doubling only ever rise. ``kwargs`` go to ``simulate``. Costs one simulation at
     ``substeps`` and one per halving tried (no gradients)."""
-    def response(s: int) -> torch.Tensor:
-        with torch.no_grad():
-            return torch.cat([y.reshape(-1) for y in simulate(model, records, substeps=s, **kwargs)])
-
     s = max(int(substeps), 1)
     if s == 1:
         return s
-    fine = response(s)
+    fine = _response(model, records, s, kwargs)
     while s % 2 == 0:
-        coarse = response(s // 2)
+        coarse = _response(model, records, s // 2, kwargs)
         if not _change(coarse, fine) <= tol:
             break
         s, fine = s // 2, coarse
     return s
+
+
+def _response(model, records, substeps: int, kwargs: dict, outputs: dict | None = None) -> torch.Tensor:
+    """The simulated response of ``records`` at ``substeps``, flattened (no gradients); ``outputs[substeps]``
+    receives ``simulate``'s outputs where given."""
+    with torch.no_grad():
+        out = simulate(model, records, substeps=substeps, **kwargs)
+    if outputs is not None:
+        outputs[substeps] = out
+    return torch.cat([y.reshape(-1) for y in out])
 
 
 def _change(coarse: torch.Tensor, fine: torch.Tensor) -> float:
