@@ -299,7 +299,8 @@ def _own_discover(ex) -> str:
             fitted.append(f"{label} = {g(t[0], 4)} + {g(t[1], 4)} p")
             law.append(f"{lo[n]:.6g} + {hi[n] - lo[n]:.6g} p")
     accepted = [s for s in d["steps"] if s.get("accepted", True)]
-    rejected = d.get("rejected") or []
+    # the step that stopped the loop: not a trend, not a start state offered right after its effect ("when")
+    rejected = [r for r in d.get("rejected") or [] if r.get("kind") != "trend" and "when" not in r]
     steps = "one step" if len(accepted) == 1 else f"{len(accepted)} steps"
     refused = f" and refuses the best effect left (`{rejected[0]['effect']}`)" if rejected else ""
     return "\n\n".join([

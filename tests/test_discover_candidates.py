@@ -99,6 +99,7 @@ def test_the_start_state_of_an_effect_just_added_is_offered_at_once_and_its_refu
     offer the rule refuses is reported as that, not as the candidate the loop stopped at."""
     from dataclasses import replace
 
+    from hybridhyst.cli.discover import summary_lines
     from hybridhyst.discover.report import report_markdown
     from hybridhyst.discover.result import AFTER_ADDED
     from hybridhyst.physics.effects import LinearStiffness
@@ -123,16 +124,25 @@ def test_the_start_state_of_an_effect_just_added_is_offered_at_once_and_its_refu
     assert "when" not in steps[0] and steps[1]["when"] == AFTER_ADDED
     assert steps[1]["parameters"]["clearance.q0"]["value"] == pytest.approx(q0, rel=0.1)
     refused = {**steps[1], "accepted": False}
-    text = report_markdown(replace(res, report={**res.report, "steps": steps[:1], "rejected": [refused]}), "t", "N")
+    last = {**steps[0], "effect": "coulomb", "accepted": False}  # the candidate that stopped the loop
+    report = {**res.report, "steps": steps[:1], "rejected": [refused, last]}
+    text = report_markdown(replace(res, report=report), "t", "N")
     assert f"The start state **clearance.start**, offered {AFTER_ADDED}, was not taken" in text
     assert "The loop stopped at the best remaining candidate, **clearance.start**" not in text
+    assert "The loop stopped at the best remaining candidate, **coulomb**" in text
+    cross = {"kind": "loco", "before": 1.0, "after": 1.1, "disagrees": True, "determined": True, "refused": True}
+    text = report_markdown(replace(res, report={**report, "rejected": [{**refused, "cross_check": cross}]}), "t", "N")
+    assert f"The start state **clearance.start**, offered {AFTER_ADDED}, was refused by its cross-check" in text
+    first = summary_lines(report, "N", "run")[0]
+    assert first.endswith("best remaining candidate not accepted: coulomb")
 
 
 def test_a_fit_leaves_sub_steps_its_model_no_longer_needs(float64):
     """Sub-steps found by doubling only rise; a model whose stiff element has gone (removed, or given up by its
     fit) is refitted at the fewest that resolve it (``polish``, ``resolve``: ``simulate.coarsest_substeps``), so
     the later candidates are not fitted at steps the model no longer needs."""
-    from hybridhyst.discover.fitting import polish
+    from hybridhyst.discover.candidates import effect_candidates
+    from hybridhyst.discover.fitting import fit_candidate, polish, sse_at
     from hybridhyst.physics.effects import LinearStiffness, Viscous
     from hybridhyst.physics.models import Constitutive
 
@@ -140,6 +150,11 @@ def test_a_fit_leaves_sub_steps_its_model_no_longer_needs(float64):
     model = Constitutive({"spring": LinearStiffness(k=1.0), "damper": Viscous(c=0.1)}).double()
     fit = polish(model, records, SimulationSettings(substeps=16), 25, 10.0)
     assert fit.substeps == 1 and math.isfinite(fit.sse)
+    assert fit.sse == pytest.approx(sse_at(fit, records, SimulationSettings(), 1), rel=1e-12)  # the SSE at its steps
+    # a candidate's fit (``resolve``) halves too: a Coulomb element added to the model at 16
+    (cand,) = effect_candidates(model, Scales.of(records), ["coulomb"])
+    c_fit = fit_candidate(cand, model, records, SimulationSettings(substeps=16), 25, 10.0)
+    assert c_fit.substeps < 16
 
 
 def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_another(float64):

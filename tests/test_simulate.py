@@ -264,3 +264,5 @@ def test_coarsest_substeps_halves_back_to_the_steps_a_model_needs(float64):
     assert coarsest_substeps(stiff, [record], 1, **opts) == 1
     plain = Constitutive({"spring": LinearStiffness(k=2.0), "damper": Viscous(c=0.1)})
     assert coarsest_substeps(plain, [record], 16, **opts) == 1
+    assert coarsest_substeps(plain, [record], 12, **opts) == 3  # halving stops at an odd count
+    assert coarsest_substeps(plain, [record], 3, **opts) == 3

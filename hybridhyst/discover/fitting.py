@@ -77,7 +77,8 @@ def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
 
 def sse_at(fit: Fit, train, sim: SimulationSettings, substeps: int) -> float:
     """The training SSE of a fitted model simulated with ``substeps`` sub-steps (no refit): a candidate that
-    needed finer steps is compared with the current model at the same resolution."""
+    needed finer steps is compared with the current model at the same resolution (the loop never asks for fewer
+    than the model's own)."""
     if substeps == fit.substeps:
         return fit.sse
     space = _space(fit.model, train)

@@ -309,7 +309,10 @@ class Loop:
         ranking = fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
                                   int(o.workers), self._bar)
         ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
-        ref = {s: sse_at(fit, self.train, self.sim, s) for s in {f.substeps for _, f in ranking if f is not None}}
+        # the current model at each candidate's sub-steps (one that needed finer steps is compared there), never
+        # below its own (a candidate that gave a stiff element up may need fewer than the current model does)
+        ref = {s: sse_at(fit, self.train, self.sim, max(s, fit.substeps))
+               for s in {f.substeps for _, f in ranking if f is not None}}
         evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
                     for c, f in ranking}
         finals = [(cand, f, self.judge(f)) for cand, f in ranking[: int(o.top)] if f is not None]
@@ -357,10 +360,11 @@ class Loop:
         ranking of the next step. Refused here, it stays a candidate of the later steps."""
         if not self.options.start_states:
             return
-        added = set(self.fit.model.effects) - set(before)
-        for cand in start_candidates(self.fit.model, self.scales):
-            if cand.meta["key"] in added and cand.name not in self.tried:
-                self._effect_step([cand], when=AFTER_ADDED)
+        for key in [k for k in self.fit.model.effects if k not in before]:
+            # against the model as it is now: an accepted offer's removals may have taken another added effect out
+            for cand in start_candidates(self.fit.model, self.scales):
+                if cand.meta["key"] == key and cand.name not in self.tried:
+                    self._effect_step([cand], when=AFTER_ADDED)
 
     def swaps(self) -> None:
         """Each added effect against the close calls of its step, on the final model (once; the model has been

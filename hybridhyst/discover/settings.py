@@ -47,8 +47,9 @@ class DiscoverSettings:
     start_states : also try starting every record from one fitted state of an element the motion before a record
         may leave away from rest (``Effect.start``: a gap's position, a presliding deflection), one candidate
         per such element (``candidates.start_candidates``).
-    criterion : "bic" or "aic", which must also fall; max_steps : steps accepted at most (an effect, a
-        parameter function of a condition or a start state each).
+    criterion : "bic" or "aic", which must also fall; max_steps : greedy steps accepted at most (an effect, a
+        parameter function of a condition or a start state each; the trends and the start state offered right
+        after an effect is added do not count).
     top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
     noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats

@@ -362,11 +362,11 @@ def coarsest_substeps(model, records, substeps: int, *, tol: float = RESOLVED, *
     """Step doubling downwards: the fewest sub-steps per sample, halving from ``substeps``, at which every halving
     changed the simulated response of ``records`` by at most ``tol`` (as ``resolved_substeps`` judges a
     doubling). A model fitted at fine steps may no longer need them after a change (a stiff element removed or
-    given up): sub-steps found by doubling only ever rise. ``kwargs`` go to ``simulate``. Costs one simulation at
-    ``substeps`` and one per halving tried (no gradients)."""
+    given up): sub-steps found by doubling only ever rise. An odd count is returned as it is. ``kwargs`` go to
+    ``simulate``. Costs one simulation at ``substeps`` and one per halving tried (no gradients)."""
     s = max(int(substeps), 1)
-    if s == 1:
-        return s
+    if s % 2:
+        return s  # 1, or an odd count: halving it is not a sub-step count the doubling would reach
     fine = _response(model, records, s, kwargs)
     while s % 2 == 0:
         coarse = _response(model, records, s // 2, kwargs)
