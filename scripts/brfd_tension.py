@@ -192,7 +192,10 @@ def table(results: dict) -> str:
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--discovery", type=Path, default=ROOT / "experiments/brfd_discovery/discovery.json")
+    ap.add_argument("--discovery", type=Path,
+                    default=ROOT / "experiments/brfd_discovery/discovery_leftover_dynamics.json",
+                    help="the discovery report whose final structure is fitted (default: the committed run that kept "
+                    "the asymmetric Coulomb step, clearance + LuGre + asymmetric Coulomb)")
     ap.add_argument("--json", type=Path, default=None, help="write every number here")
     args = ap.parse_args(argv)
     torch.set_default_dtype(torch.float64)
