@@ -68,6 +68,57 @@ def test_levenberg_marquardt_moves_only_free_coordinates():
         levenberg_marquardt(residual_rows, box, starts, free=torch.tensor([False, False]), progress=False)
 
 
+def test_parameter_derivatives_of_constants_are_forward_ads_to_the_last_bit(float64):
+    """``RecordsProblem`` writes a constant's derivative as a unit column instead of running it through forward-mode
+    AD (every Jacobian of every fit asks for them): the numbers must be AD's exactly, with trends, constants, a
+    held coordinate and a subset of free coordinates side by side."""
+    import torch.autograd.forward_ad as fwAD
+
+    from hybridhyst.simulate.api import dual_level
+
+    dahl = _dahl(sigma0=10.0, c=0.5)
+    dahl.effects["dahl"].params["Fc"] = _linear(1.0, 20.0)
+    model = Constitutive({"spring": EFFECTS["linear_stiffness"](k=3.0), **dict(dahl.effects)},
+                         units=dahl.units).double()
+    data = _records(model, [{"pressure_mpa": p} for p in (0.02, 0.05, 0.08)])
+    space = SearchSpace(model, free=[n for n in SearchSpace(model).names if n != "dahl.sigma0"])
+    problem = RecordsProblem(space, list(data))
+    X = space.initial()[None].expand(3, -1).clone() * torch.tensor([[1.0], [1.1], [0.9]], dtype=torch.float64)
+    for idx in (list(range(space.dim)), [0, space.dim - 1]):
+        _, _, U, _, cond = problem.groups[0]
+        R, (N, F) = U.shape[0], (X.shape[0], len(idx))
+        E = X.new_zeros(N, F, space.dim)
+        E[:, torch.arange(F), idx] = 1.0
+        with dual_level():
+            values = space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+            ad = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
+        got = problem._value_jacobian(X, idx, cond, R)
+        assert got.keys() == ad.keys()
+        for k, d in ad.items():
+            assert got[k].keys() == d.keys()
+            for n, v in d.items():
+                want = X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+                assert torch.equal(got[k][n], want), (k, n)
+
+
+def test_populations_of_any_size_simulate_as_their_rows_alone(float64):
+    """``RecordsProblem`` repeats its inputs once for the largest population yet and hands a leading slice of them to
+    smaller ones: residuals and Jacobians of a population, grown and shrunk, are those of each row on its own."""
+    dahl = _dahl(sigma0=10.0, c=0.5)
+    dahl.effects["dahl"].params["Fc"] = _linear(1.0, 20.0)
+    data = _records(dahl.double(), [{"pressure_mpa": p} for p in (0.02, 0.05, 0.08)])
+    problem = RecordsProblem(SearchSpace(dahl.double()), list(data))
+    X = problem.space.initial()[None] * torch.linspace(0.8, 1.2, 5, dtype=torch.float64)[:, None]
+    free = torch.ones(problem.space.dim, dtype=torch.bool)
+    alone = [problem.residuals(X[i:i + 1]) for i in range(5)]
+    alone_jacobians = [problem.jacobian_rows(X[i:i + 1], free) for i in range(5)]
+    for n in (2, 5, 3, 1):
+        assert torch.equal(problem.residuals(X[:n]), torch.cat(alone[:n]))
+        r, J = problem.jacobian_rows(X[:n], free)
+        assert torch.equal(r, torch.cat([a[0] for a in alone_jacobians[:n]]))
+        assert torch.equal(J, torch.cat([a[1] for a in alone_jacobians[:n]]))
+
+
 def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):
     """``RecordsProblem.jacobian_rows`` (forward sensitivities through the parameter functions and the
     compiled loop) against central differences of the residuals, for a model with a play before a spring (a

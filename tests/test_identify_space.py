@@ -29,6 +29,22 @@ def test_box_coordinates_have_finite_gradients_on_wide_linear_scales():
     assert torch.allclose(dX, torch.tensor([[3e5, 7.6e6, math.sqrt(2.0) * math.log(200.0)]], dtype=torch.float64))
 
 
+def test_coordinates_from_logits_and_their_derivatives_are_autograds_to_the_last_bit():
+    """Levenberg–Marquardt chains its exact Jacobians through ``Box.from_logits`` instead of a backward pass; the
+    numbers must be autograd's exactly, or every fit (and each committed result) would move."""
+    from hybridhyst.identify.space import Box
+
+    box = Box([-1.5e5, 0.0, 0.1, 1e-6, -3.0], [1.5e5, 7.6e6, 20.0, 1e3, 7.0], log=[False, False, True, True, False])
+    W = torch.randn(400, 5, dtype=torch.float64, generator=torch.Generator().manual_seed(0)) * 6
+    W[:3] = torch.tensor([0.0, 40.0, -40.0], dtype=torch.float64)[:, None]  # the centre and saturated logits
+    Wg = W.clone().requires_grad_(True)
+    X = box.from_unit(torch.sigmoid(Wg))
+    (dX,) = torch.autograd.grad(X.sum(), Wg)
+    X2, dX2 = box.from_logits(W)
+    assert torch.equal(X2, X.detach())
+    assert torch.equal(dX2, dX)
+
+
 def test_a_trend_starting_at_zero_gets_a_box_from_the_data(float64):
     """A slope at 0 is searched within ± factor · |intercept| / (range of the condition in the data), not
     (-1, 1), which would miss a parameter doubling over 0.01 ... 0.09 MPa (slope ~ 84 for c = 6.7); the

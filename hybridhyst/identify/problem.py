@@ -10,6 +10,8 @@ import torch.autograd.forward_ad as fwAD
 
 from ..data.batch import record_batches
 from ..data.records import Record
+from ..physics.effects.base import signals
+from ..physics.parameters import Constant
 from ..simulate import SimulationSettings, jacobian_covers, simulate, simulate_jacobian
 from ..simulate.api import dual_level
 from ..simulate.inputs import with_rates
@@ -37,19 +39,31 @@ class RecordsProblem:
         self.sim = SimulationSettings.of(settings, method=method, substeps=substeps, backend=backend)
         dtype = next(iter(space.model.parameters()), torch.zeros((), dtype=torch.float64)).dtype
         # the input rates once (finite differences), not at every cost evaluation
-        self.groups = [(b.index, b.t, with_rates(b.inputs, b.t), b.y, b.conditions)
-                       for b in record_batches(self.records, input_channels, dtype)]
+        # a group's records on one grid keep one (time,) row of it: the simulator would find that again at every
+        # call (rates are taken on the grid as given, as before)
+        self.groups = [(b.index, b.t[0] if bool((b.t == b.t[:1]).all()) else b.t, with_rates(b.inputs, b.t), b.y,
+                        b.conditions) for b in record_batches(self.records, input_channels, dtype)]
         self.n_samples = sum(len(r) for r in self.records)
         self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
+        self._repeated: dict[int, tuple] = {}
 
     def _batch(self, X: torch.Tensor, group) -> dict:
         """The simulation arguments of one time-grid group for the population ``X (N, D)``: member n at record
         r is batch row n·R + r, with its parameter values at record r's conditions."""
         _, t, U, _, cond = group
         N, R = X.shape[0], U.shape[0]
-        return {"inputs": U.repeat(N, 1, 1), "t": t.repeat(N, 1), "values": self.space.values(X.to(U.dtype), cond, R),
-                "conditions": {k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()} or None}  # networks,
-        # controls
+        # the inputs repeated once for the largest population yet (every LM iteration asks again): N copies
+        # are a leading slice of them
+        n, rep = self._repeated.get(id(group), (0, None))
+        if N > n:
+            n, rep = N, (U.repeat(N, 1, 1), t.repeat(N, 1) if t.ndim == 2 else t,
+                         {k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()})
+            self._repeated[id(group)] = (n, rep)
+        inputs, times, conditions = rep
+        inputs, times = inputs[: N * R], times[: N * R] if times.ndim == 2 else times
+        return {"inputs": inputs, "t": times, "values": self.space.values(X.to(U.dtype), cond, R),
+                # networks, controls
+                "conditions": {k: v[: N * v.shape[0] // n] for k, v in conditions.items()} or None}
 
     def predict_groups(self, X: torch.Tensor) -> list[torch.Tensor]:
         """Responses ``(N, R_g, T_g)`` of each time-grid group for the population ``X (N, D)``."""
@@ -88,15 +102,33 @@ class RecordsProblem:
 
     def _value_jacobian(self, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
         """``{effect: {parameter: (N·R, F)}}``: each row's parameter values differentiated w.r.t. the free
-        coordinates ``idx``, in one forward-mode pass (coordinate j's direction in its own block of rows)."""
+        coordinates ``idx``: a constant's is its coordinate's unit column (what forward mode gives it, written
+        directly), the other functions' come from one forward-mode pass (coordinate j's direction in its own block
+        of rows)."""
         N, F = X.shape[0], len(idx)
+        out: dict[str, dict] = {}
+        follow = signals(cond)
+        rest = []
+        for (k, n), fn in self.space.functions.items():
+            if type(fn) is Constant and fn.condition not in follow:  # its value is its coordinate: a unit column
+                j = self.space._columns[(k, n)][0]
+                out.setdefault(k, {})[n] = d = X.new_zeros(N * R, F)
+                if j in idx:
+                    d[:, idx.index(j)] = 1.0
+            else:
+                rest.append((k, n))
+        if not rest:
+            return out
         E = X.new_zeros(N, F, X.shape[1])
         E[:, torch.arange(F), idx] = 1.0
         with dual_level():
-            values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+            values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R,
+                                       only=rest)
             tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
-        return {k: {n: X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
-                    for n, v in d.items()} for k, d in tangents.items()}
+        for k, d in tangents.items():
+            out.setdefault(k, {}).update({n: X.new_zeros(N * R, F) if v is None else
+                                          v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F) for n, v in d.items()})
+        return out
 
     def _jacobian(self, X: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         idx = torch.nonzero(torch.as_tensor(free, dtype=torch.bool)).reshape(-1).tolist()

@@ -161,10 +161,8 @@ def _lm_jacobian(residual_rows, space: Box, W: torch.Tensor, r0: torch.Tensor, h
 def _lm_exact(jacobian_rows, space: Box, W: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Residuals ``(K, M)`` and Jacobians ``(K, M, F)`` w.r.t. the ``free`` logits from ``jacobian_rows``
     (Jacobians w.r.t. the coordinates), chained through the box's map from logits (one coordinate each)."""
-    Wg = W.detach().clone().requires_grad_(True)
-    X = space.from_unit(torch.sigmoid(Wg))
-    (dX,) = torch.autograd.grad(X.sum(), Wg)
-    r, J = jacobian_rows(X.detach(), free)
+    X, dX = space.from_logits(W.detach())
+    r, J = jacobian_rows(X, free)
     return r, J * dX[:, free][:, None, :]
 
 
@@ -174,19 +172,33 @@ def _lm_exact_or_fd(jacobian_rows, residual_rows, space: Box, W: torch.Tensor, f
     residuals are (a sensitivity that overflows where the response does not), so that such a row still moves
     instead of getting zero steps. Also returns how many rows took differences."""
     r, J = _lm_exact(jacobian_rows, space, W, free)
-    bad = ~torch.isfinite(J).flatten(1).all(dim=1) & torch.isfinite(r).all(dim=1)
+    bad = ~_finite_rows(J) & _finite_rows(r)
     if bool(bad.any()):
         J[bad] = _lm_jacobian(residual_rows, space, W[bad], r[bad], h, free)
     return r, J, int(bad.sum())
+
+
+def _finite_rows(a: torch.Tensor) -> torch.Tensor:
+    """Whether each row (first axis) of ``a`` is finite everywhere: a finite row sum says so for most rows at the
+    cost of one pass (a NaN or inf makes it non-finite); only the others are checked element by element (a sum
+    of finite values can overflow)."""
+    if a.ndim < 2:
+        return torch.isfinite(a)
+    ok = torch.isfinite(a.sum(dim=tuple(range(1, a.ndim))))
+    if not bool(ok.all()):
+        rows = ~ok
+        ok[rows] = torch.isfinite(a[rows]).flatten(1).all(dim=1)
+    return ok
 
 
 def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
     """Damped Gauss–Newton steps ``(K, D)``; a row whose residuals or Jacobian are not finite (a diverged
     simulation) or whose system is singular gets a zero step instead of stopping the batch."""
     K, _, D = J.shape
-    bad = ~(torch.isfinite(J).all(dim=(1, 2)) & torch.isfinite(r).all(dim=1))
-    J = torch.where(bad[:, None, None], torch.zeros_like(J), J)
-    r = torch.where(bad[:, None], torch.zeros_like(r), r)
+    bad = ~(_finite_rows(J) & _finite_rows(r))
+    if bool(bad.any()):
+        J = torch.where(bad[:, None, None], torch.zeros_like(J), J)
+        r = torch.where(bad[:, None], torch.zeros_like(r), r)
     JtJ = J.transpose(1, 2) @ J
     g = (J.transpose(1, 2) @ r[..., None])[..., 0]
     eye = torch.eye(D, dtype=J.dtype).expand(K, D, D)
@@ -223,6 +235,7 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     if not bool(free.any()):
         raise ValueError("levenberg_marquardt: no free coordinate (free is all False)")
     F = int(free.sum())
+    free_index = torch.nonzero(free).reshape(-1)
     lam = torch.full((K,), 1e-3, dtype=torch.float64)
     if jacobian_rows is None:
         r = _lm_residuals(residual_rows, space, W)
@@ -241,23 +254,34 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             rows = torch.nonzero(active).reshape(-1)
             if rows.numel() == 0:
                 break
-            step = torch.zeros(rows.numel(), D, dtype=W.dtype)
-            step[:, free] = _lm_step(J[rows], r[rows], lam[rows])
+            every = rows.numel() == K  # no copies of the Jacobians while every row is active
+            step = _lm_step(J if every else J[rows], r if every else r[rows], lam if every else lam[rows])
+            if F < D:
+                step = torch.zeros(rows.numel(), D, dtype=W.dtype).index_copy_(1, free_index, step)
             r_new = _lm_residuals(residual_rows, space, W[rows] + step)
             new = r_new.square().mean(dim=1).nan_to_num(nan=math.inf)
             ok = new < cost[rows]
             evals += rows.numel()
             gain = (cost[rows] - new) / cost[rows].clamp_min(1e-300)
-            if bool(ok.any()):  # Jacobians only where the step was accepted
+            n_ok = int(ok.sum())
+            if n_ok == K:  # every row accepted: the new arrays replace the old ones, no copies
+                W, r, cost = W + step, r_new, new
+                if jacobian_rows is None:
+                    J = _lm_jacobian(residual_rows, space, W, r, h, free)
+                    evals += K * F
+                else:
+                    _, J, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W, free, h)
+                    evals += K + differenced * F
+            elif n_ok:  # Jacobians only where the step was accepted
                 acc = rows[ok]
                 W[acc] = W[acc] + step[ok]
                 r[acc], cost[acc] = r_new[ok], new[ok]
                 if jacobian_rows is None:
                     J[acc] = _lm_jacobian(residual_rows, space, W[acc], r[acc], h, free)
-                    evals += int(ok.sum()) * F
+                    evals += n_ok * F
                 else:
                     _, J[acc], differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W[acc], free, h)
-                    evals += int(ok.sum()) + differenced * F
+                    evals += n_ok + differenced * F
             # converged rows: a negligible gain from a nearly undamped (Gauss–Newton) step, or a damping only
             # refusals reach
             small = ok & (gain < rtol) & (lam[rows] <= 1.0)

@@ -42,7 +42,7 @@ wide let it wander into laws that diverge between the data's levels.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,6 +122,19 @@ class Box:
         # exp only where the scale is logarithmic: a linear coordinate's exp overflows for |s| > 709, and the
         # unused branch's inf · 0 would make its gradient NaN
         return torch.where(log, torch.where(log, s, 0.0).exp(), s)
+
+    def from_logits(self, W: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Coordinates ``from_unit(sigmoid(W))`` ``(N, D)`` and their derivatives w.r.t. the logits ``W``
+        (elementwise), without a backward pass: the same operations, in the same order, as autograd's backward of
+        that map (``exp``'s result, the span, then the sigmoid's ``(1 − σ) σ``), so the same numbers."""
+        U = torch.sigmoid(W)
+        lo, hi = self._ends(U)
+        span = hi - lo
+        s = lo + span * U
+        log = self.log.to(U.device)
+        X = torch.where(log, torch.where(log, s, 0.0).exp(), s)
+        ds = torch.where(log, X, torch.ones_like(X))  # dX/ds: exp's result on a log scale, 1 on a linear one
+        return X, ds * span * (1 - U) * U
 
     def to_unit(self, X: torch.Tensor) -> torch.Tensor:
         """Coordinates ``(N, D)`` → unit-cube points."""
@@ -286,6 +299,9 @@ class SearchSpace(Box):
         if not coords:
             raise ValueError("the model has no free parameters to identify; un-fix at least one")
         self.coordinates = coords
+        where = {(c.effect, c.param, c.position): j for j, c in enumerate(coords)}
+        # each function's columns of a population, None for a held coordinate
+        self._columns = {f: [where.get((*f, i)) for i in range(k)] for f, k in self.sizes.items()}
         log = [c.lower > 0 and c.upper / c.lower > 3 for c in coords]
         super().__init__([c.lower for c in coords], [c.upper for c in coords], log)
 
@@ -315,8 +331,10 @@ class SearchSpace(Box):
                             dtype=torch.float64)
 
     # -- population -> per-row parameter values ----------------------------------------------------
-    def values(self, X: torch.Tensor, conditions: Mapping[str, torch.Tensor] | None, repeats: int) -> dict:
-        """Per-row values for ``simulate(values=...)``: ``X (N, D)`` at ``repeats`` = R record conditions.
+    def values(self, X: torch.Tensor, conditions: Mapping[str, torch.Tensor] | None, repeats: int,
+               only: Collection[tuple[str, str]] | None = None) -> dict:
+        """Per-row values for ``simulate(values=...)``: ``X (N, D)`` at ``repeats`` = R record conditions
+        (``only``: of these ``(effect, parameter)`` functions alone).
 
         Row ``n * R + r`` holds member n at record r. ``conditions`` maps a condition name to ``(R,)``.
         Differentiable w.r.t. ``X``. A function of a condition whose coefficients put the parameter outside its
@@ -325,16 +343,12 @@ class SearchSpace(Box):
         simulates nothing and every search and refit treats it as infinitely costly.
         """
         N, R = X.shape[0], int(repeats)
-        cols: dict[tuple[str, str], list] = {key: [None] * k for key, k in self.sizes.items()}
-        for j, c in enumerate(self.coordinates):
-            cols[(c.effect, c.param)][c.position] = X[:, j]
-        for c in self.held:
-            cols[(c.effect, c.param)][c.position] = X.new_full((N,), c.value)
         out: dict[str, dict[str, torch.Tensor]] = {}
         follow = signals(conditions)
         for (key, pname), fn in self.functions.items():
-            col = cols[(key, pname)]
-            coords = torch.stack(col, dim=1) if col else X.new_zeros((N, 0))
+            if only is not None and (key, pname) not in only:
+                continue
+            coords = self._function_coords(X, key, pname)
             if fn.condition in follow:  # a function of a control: its coordinates, evaluated at every step
                 out.setdefault(key, {}).update({pname + s: coords[:, i].repeat_interleave(R)
                                                 for i, s in enumerate(fn.suffixes())})
@@ -345,6 +359,19 @@ class SearchSpace(Box):
                 value = torch.where(spec.admits(value), value, torch.full_like(value, math.nan))
             out.setdefault(key, {})[pname] = value
         return out
+
+    def _function_coords(self, X: torch.Tensor, key: str, pname: str) -> torch.Tensor:
+        """``(N, k)``: the coordinates of one parameter function, in order: a slice of ``X`` where they are
+        adjacent free columns (most functions; this runs at every simulation of a fit), else gathered with the
+        held ones."""
+        cols = self._columns[(key, pname)]
+        if not cols:
+            return X.new_zeros((X.shape[0], 0))
+        if None not in cols and cols == list(range(cols[0], cols[0] + len(cols))):
+            return X[:, cols[0]:cols[0] + len(cols)]
+        held = {c.position: c.value for c in self.held if (c.effect, c.param) == (key, pname)}
+        return torch.stack([X[:, j] if j is not None else X.new_full((X.shape[0],), held[i])
+                            for i, j in enumerate(cols)], dim=1)
 
     # -- writing back --------------------------------------------------------------------------------
     def to_model(self, x) -> nn.Module:

@@ -51,7 +51,7 @@ def _as_conditions(conditions, batch: int, dtype, device, time: int | None = Non
             v = v.expand(batch)
         if v.ndim == 2 and time is not None and v.shape[1] == time:
             v = v.expand(batch, -1)
-            if not bool(torch.isfinite(v).all()):
+            if not (bool(torch.isfinite(v.sum())) or bool(torch.isfinite(v).all())):
                 raise ValueError(f"control {key!r} contains NaN/inf; clean the control channel first")
         elif v.shape != (batch,):
             raise ValueError(
@@ -244,18 +244,23 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     s0 = model.initial_state(P, B, controls=first)
     n = len(keys)
     ds0 = s0.new_zeros(B, s0.shape[1], n)
-    if n and s0.shape[1]:  # the initial state's derivatives: forward-mode AD, each parameter in its own B rows
+    # the initial state's derivatives: forward-mode AD, each parameter in its own B rows; only an effect with a
+    # state reads its parameters there (``Model.initial_state``), so only theirs get rows
+    stateful = [j for j, (k, _) in enumerate(keys) if k in model.effects and model.effects[k].state_dim]
+    m = len(stateful)
+    if m and s0.shape[1]:
         with dual_level():
-            rows = {k: {name: v.expand(B).repeat(n) for name, v in d.items()} for k, d in P.items()
+            rows = {k: {name: v.expand(B).repeat(m) for name, v in d.items()} for k, d in P.items()
                     if isinstance(d, dict)}
-            for j, (k, name) in enumerate(keys):
-                e = torch.zeros(n, B, dtype=dtype, device=u.device)
-                e[j] = 1.0
+            for i, j in enumerate(stateful):
+                k, name = keys[j]
+                e = torch.zeros(m, B, dtype=dtype, device=u.device)
+                e[i] = 1.0
                 rows[k][name] = fwAD.make_dual(rows[k][name], e.reshape(-1))
-            first_n = {c: v.repeat(n) for c, v in (first or {}).items()}
-            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, n * B, controls=first_n)).tangent
+            first_m = {c: v.repeat(m) for c, v in (first or {}).items()}
+            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, m * B, controls=first_m)).tangent
         if tangent is not None:
-            ds0 = tangent.reshape(n, B, -1).permute(1, 2, 0).contiguous()
+            ds0[..., stateful] = tangent.reshape(m, B, -1).permute(1, 2, 0)
     y, dy = tangent_fast(model, U, t, P, s0, ds0, method=method or "rk4", substeps=substeps, controls=controls)
     return y, dy, keys
 
@@ -271,7 +276,7 @@ def _prepare(inputs, t, dt, dtype, device=None):
     T = u.shape[1]
     if T < 2:
         raise ValueError(f"inputs have {T} time sample(s); simulation needs at least 2")
-    if not torch.isfinite(u).all():
+    if not (bool(torch.isfinite(u.detach().sum())) or bool(torch.isfinite(u).all())):  # a finite sum: one pass
         bad = (~torch.isfinite(u)).nonzero()[0].tolist()
         raise ValueError(f"inputs contain NaN/inf (first at batch {bad[0]}, sample {bad[1]}); clean the input first")
     if t is None:

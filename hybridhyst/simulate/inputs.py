@@ -17,6 +17,8 @@ def with_rates(u: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     channels = u.shape[-1]
     if channels not in (1, 2, 3):
         raise ValueError(f"input has {channels} channels; give 1 (u), 2 (u, du/dt) or 3 (u, du/dt, d2u/dt2)")
+    if channels == 3:
+        return u  # complete already (the same values a stack of its columns would copy)
     cols = [u[..., i] for i in range(channels)]
     edge = 2 if u.shape[1] >= 3 else 1
     while len(cols) < 3:
@@ -53,14 +55,21 @@ def gradient(f: torch.Tensor, t: torch.Tensor, edge_order: int = 2) -> torch.Ten
 def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Tensor:
     """Linear interpolation of ``U (batch, time, C)`` sampled at ``t`` (``(time,)`` or ``(batch, time)``) at
     query times ``tq`` (``(batch, Q)``), held at the ends."""
-    T = t.shape[-1]
-    grid = t.expand(U.shape[0], -1).contiguous()
-    idx = torch.searchsorted(grid, tq.detach().contiguous(), right=True) - 1
-    idx = idx.clamp(0, T - 2)
-    t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
+    B, T, C = U.shape
+    if t.ndim == 1:  # one grid for every row: searched and indexed as it is, not copied per row
+        idx = (torch.searchsorted(t, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
+        t0, t1 = (t.index_select(0, i.reshape(-1)).reshape(i.shape) for i in (idx, idx + 1))
+    else:
+        grid = t.expand(B, -1).contiguous()
+        idx = (torch.searchsorted(grid, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
+        t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
     w = ((tq - t0) / (t1 - t0)).clamp(0.0, 1.0)[..., None]
-    gather = lambda i: torch.gather(U, 1, i[..., None].expand(-1, -1, U.shape[-1]))  # noqa: E731
-    return gather(idx) * (1 - w) + gather(idx + 1) * w
+    flat, first = U.reshape(B * T, C), (torch.arange(B, device=U.device) * T)[:, None]  # row b's samples at b·T
+
+    def at(i):
+        return flat.index_select(0, (i + first).reshape(-1)).reshape(B, -1, C)
+
+    return at(idx) * (1 - w) + at(idx + 1) * w
 
 
 def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
@@ -69,9 +78,9 @@ def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor
     tq = grid - tau[:, None]
     out = interpolate(U, t, tq)
     # before t0 the input is held at rest: its value persists, its rates are zero
-    before = (tq < grid[:, :1])[..., None]
-    rates_mask = torch.tensor([False, True, True], device=U.device)
-    return torch.where(before & rates_mask, torch.zeros_like(out), out)
+    before = tq < (t[:1] if t.ndim == 1 else grid[:, :1])
+    out[..., 1:].masked_fill_(before[..., None], 0.0)
+    return out
 
 
 def input_sample(v: torch.Tensor, controls: tuple[str, ...] = ()) -> InputSample:

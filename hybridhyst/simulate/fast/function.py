@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import torch
 
@@ -13,13 +15,23 @@ from .equations import build_equations
 _COMPILED: dict[tuple, tuple] = {}
 
 
+def _buffers(module) -> list:
+    """The module's buffers and its submodules', depth first (what ``Module.buffers()`` yields, without its
+    generators: this runs at every simulation)."""
+    out = [b for b in module._buffers.values() if b is not None]
+    for child in module._modules.values():
+        if child is not None:
+            out += _buffers(child)
+    return out
+
+
 def _constants(model) -> tuple:
     """What the generated code holds beyond the parameter values: which effect objects it was built from, and
     for networks their layer shapes, activation, inputs and buffers (scales and condition statistics, which a
     state dict may overwrite in place)."""
     out = []
     for key, e in model.effects.items():
-        entry = (key, id(e), tuple(tuple(b.reshape(-1).tolist()) for b in e.buffers()))
+        entry = (key, id(e), tuple(tuple(b.reshape(-1).tolist()) for b in _buffers(e)))
         if isinstance(e, NeuralEffect):
             entry += (id(e.net), tuple(tuple(lin.weight.shape) for lin in e.net.layers()), e.net.activation,
                       e.inputs, e.condition_names)
@@ -61,14 +73,19 @@ def _numpy(x: torch.Tensor) -> np.ndarray:
     return np.ascontiguousarray(x.detach().to(device="cpu", dtype=torch.float64).numpy())
 
 
+@functools.cache
 def _tableau(method: str):
+    """The Butcher tableau ``(c, A, b)`` of ``method`` as the read-only arrays the loops take (built once)."""
     if method not in TABLEAUX:
         raise ValueError(f"unknown fixed-step method {method!r}; choose one of {sorted(TABLEAUX)}")
     c, a, b = TABLEAUX[method]
     A = np.zeros((len(c), len(c)))
     for j, row in enumerate(a):
         A[j, : len(row)] = row
-    return np.asarray(c, dtype=np.float64), A, np.asarray(b, dtype=np.float64)
+    out = np.array(c, dtype=np.float64), A, np.array(b, dtype=np.float64)
+    for arr in out:
+        arr.flags.writeable = False
+    return out
 
 
 class _FastSimulate(torch.autograd.Function):
@@ -82,7 +99,11 @@ class _FastSimulate(torch.autograd.Function):
         module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
         ctx.save_for_backward(theta, U, s0)
         ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module, y.shape)
-        S = torch.from_numpy(states.copy()).to(dtype=U.dtype, device=U.device)  # the adjoint keeps its own
+        if any(ctx.needs_input_grad):
+            states_out = states.copy()  # the adjoint keeps its own
+        else:
+            states_out = states  # no backward will read them
+        S = torch.from_numpy(states_out).to(dtype=U.dtype, device=U.device)
         return torch.from_numpy(y).to(dtype=U.dtype, device=U.device), S
 
     @staticmethod
