@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 import torch
 from test_identify import _dahl, _linear, _records
@@ -99,6 +101,24 @@ def test_parameter_derivatives_of_constants_are_forward_ads_to_the_last_bit(floa
             for n, v in d.items():
                 want = X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
                 assert torch.equal(got[k][n], want), (k, n)
+
+
+def test_a_selection_of_parameter_derivatives_is_the_batched_product_to_the_last_bit(float64):
+    """``problem._chain`` takes the columns of a pure 0/1 selection instead of multiplying (constants only); the
+    numbers must be the product's, and a non-finite derivative of a parameter left out must still spoil the row
+    as the product does (so that Levenberg–Marquardt takes differences there, as before)."""
+    from hybridhyst.identify.problem import _chain
+
+    g = torch.Generator().manual_seed(0)
+    dy = torch.randn(6, 50, 5, dtype=torch.float64, generator=g)
+    dy[0, 3, 1] = -0.0
+    pick = torch.zeros(5, 3, dtype=torch.float64)
+    pick[[4, 1, 2], [0, 1, 2]] = 1.0
+    for dvdx in (pick.expand(6, -1, -1), pick.expand(6, -1, -1) * torch.tensor([1.0, 1.0, 0.5])):  # then a trend
+        assert torch.equal(_chain(dy, dvdx), dy @ dvdx)
+    dy[2, 7, 0] = math.inf  # parameter 0 is no free coordinate's
+    assert torch.equal(_chain(dy, pick.expand(6, -1, -1)).isnan(), (dy @ pick.expand(6, -1, -1)).isnan())
+    assert bool(_chain(dy, pick.expand(6, -1, -1))[2, 7].isnan().all())
 
 
 def test_populations_of_any_size_simulate_as_their_rows_alone(float64):

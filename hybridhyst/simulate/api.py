@@ -250,8 +250,8 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     m = len(stateful)
     if m and s0.shape[1]:
         with dual_level():
-            rows = {k: {name: v.expand(B).repeat(m) for name, v in d.items()} for k, d in P.items()
-                    if isinstance(d, dict)}
+            rows = {k: {name: v.expand(B).repeat(m) for name, v in P[k].items()}
+                    for k in {keys[j][0] for j in stateful}}
             for i, j in enumerate(stateful):
                 k, name = keys[j]
                 e = torch.zeros(m, B, dtype=dtype, device=u.device)
