@@ -58,6 +58,7 @@ def _earlier_cost(path) -> dict[str, float]:
 
 
 def main(argv=None) -> list[dict]:
+    from hybridhyst.discover.settings import CROSS_CHECK
     from hybridhyst.discover.validation import VALIDATION
     from hybridhyst.testbed.cases import CASE_BY_NAME, CASES, FAST_CASES
     from hybridhyst.testbed.run import markdown, run_bed, summary
@@ -72,11 +73,13 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--json", metavar="PATH", help="write the rows and the summary as JSON")
     ap.add_argument("--validation", choices=VALIDATION, default="records",
                     help="discover's validation for every case (default: records, the library default)")
+    ap.add_argument("--cross-check", choices=CROSS_CHECK, default="confirm",
+                    help="discover's cross-check for every case (default: confirm, the library default)")
     ap.add_argument("--no-start-states", action="store_true",
                     help="discover without the start-state candidates (start_states=False) for every case")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
-    if args.write_readme and (args.validation != "records" or args.no_start_states):
+    if args.write_readme and (args.validation != "records" or args.no_start_states or args.cross_check != "confirm"):
         ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
     if args.bed == "blind":
         from hybridhyst.testbed.blind_cases import BLIND_CASE_BY_NAME, BLIND_CASES
@@ -88,7 +91,8 @@ def main(argv=None) -> list[dict]:
         ap.error(f"unknown case(s) {unknown}; the bed has {sorted(CASE_BY_NAME)}")
     start = time.perf_counter()
     options = {**({"validation": args.validation} if args.validation != "records" else {}),
-               **({"start_states": False} if args.no_start_states else {})} or None
+               **({"start_states": False} if args.no_start_states else {}),
+               **({"cross_check": args.cross_check} if args.cross_check != "confirm" else {})} or None
     rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options, cost=_earlier_cost(args.json))
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])

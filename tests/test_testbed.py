@@ -207,3 +207,25 @@ def test_whole_bed_meets_the_pass_criteria():
     assert s["rmse_share"] >= TARGETS["rmse_share"], table
     assert s["clean_ok"] == s["clean_cases"], table
     assert s["ool_ok"] == s["ool_cases"], table
+
+
+def test_the_bed_script_runs_every_case_with_the_settings_given_and_keeps_the_readme_for_the_defaults(monkeypatch):
+    """``scripts/discovery_testbed.py``: ``--cross-check``, ``--validation`` and ``--no-start-states`` reach
+    ``discover()`` for every case alike (the committed JSON of each non-default run is regenerable by its own
+    command), and ``--write-readme`` refuses them (the README's tables are the library's defaults)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "discovery_testbed.py"
+    spec = importlib.util.spec_from_file_location("discovery_testbed", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    seen = []
+    monkeypatch.setattr("hybridhyst.testbed.run.run_bed", lambda cases, jobs, options, cost: seen.append(options) or [])
+    monkeypatch.setattr("hybridhyst.testbed.run.markdown", lambda rows: "")
+    script.main(["--cases", "viscous", "--cross-check", "report", "--no-start-states"])
+    script.main(["--cases", "viscous"])
+    assert seen == [{"start_states": False, "cross_check": "report"}, None]
+    for bad in (["--cross-check", "report"], ["--validation", "loco"], ["--no-start-states"]):
+        with pytest.raises(SystemExit):
+            script.main(["--cases", "viscous", "--write-readme", *bad])
