@@ -196,3 +196,12 @@ def test_bench_training_quick_times_epochs_of_every_module_on_the_same_windows(t
         assert _positive(row["cpu"]["epoch_s"]) and len(row["cpu"]["all_epochs_s"]) == res["epochs"]
     assert res["rows"]["LSTM (2×64)"]["cpu"]["ratio_to_lstm"] == 1.0
     assert bench.markdown(res) in stdout
+
+
+def test_bench_tests_quick_runs_the_test_command_in_an_empty_cache(tmp_path):
+    res, stdout = _run("bench_tests.py", tmp_path)
+    assert res["returncode"] == 0 and "1 passed" in res["summary"] and res["models_built"] == 0
+    assert _positive(res["wall_s"]) and res["command"].startswith("python -m pytest -q")
+    assert f"{res['wall_s']:.0f} s wall" in stdout and "target 6 min: met" in stdout
+    failed = {**res, "returncode": 1}
+    assert "**not met**" in _script("bench_tests").markdown(failed)
