@@ -105,20 +105,26 @@ def test_parameter_derivatives_of_constants_are_forward_ads_to_the_last_bit(floa
 
 def test_a_selection_of_parameter_derivatives_is_the_batched_product_to_the_last_bit(float64):
     """``problem._chain`` takes the columns of a pure 0/1 selection instead of multiplying (constants only); the
-    numbers must be the product's, and a non-finite derivative of a parameter left out must still spoil the row
-    as the product does (so that Levenberg–Marquardt takes differences there, as before)."""
+    values must be the product's, and a non-finite derivative, of a parameter a coordinate selects or of one left
+    out, must spoil its sample's row as the product does (inf · 0 = NaN), which Levenberg–Marquardt and the Fisher
+    analysis check for."""
     from hybridhyst.identify.problem import _chain
 
     g = torch.Generator().manual_seed(0)
     dy = torch.randn(6, 50, 5, dtype=torch.float64, generator=g)
-    dy[0, 3, 1] = -0.0
     pick = torch.zeros(5, 3, dtype=torch.float64)
-    pick[[4, 1, 2], [0, 1, 2]] = 1.0
-    for dvdx in (pick.expand(6, -1, -1), pick.expand(6, -1, -1) * torch.tensor([1.0, 1.0, 0.5])):  # then a trend
+    pick[[4, 1, 2], [0, 1, 2]] = 1.0  # parameters 0 and 3 are no free coordinate's
+    twice = pick.clone()
+    twice[1, 0], twice[4, 0] = 1.0, 0.0  # two coordinates of one parameter's value
+    for dvdx in (pick, twice, pick * torch.tensor([1.0, 1.0, 0.5])):  # the last a trend: no selection
+        dvdx = dvdx.expand(6, -1, -1)
         assert torch.equal(_chain(dy, dvdx), dy @ dvdx)
-    dy[2, 7, 0] = math.inf  # parameter 0 is no free coordinate's
-    assert torch.equal(_chain(dy, pick.expand(6, -1, -1)).isnan(), (dy @ pick.expand(6, -1, -1)).isnan())
-    assert bool(_chain(dy, pick.expand(6, -1, -1))[2, 7].isnan().all())
+    for where in ((2, 7, 0), (3, 9, 4)):  # left out, then selected
+        bad = dy.clone()
+        bad[where] = math.inf
+        got, want = _chain(bad, pick.expand(6, -1, -1)), bad @ pick.expand(6, -1, -1)
+        assert torch.equal(got.isnan(), want.isnan()) and torch.equal(got.nan_to_num(), want.nan_to_num())
+        assert bool(got[where[0], where[1]].isnan().any())
 
 
 def test_populations_of_any_size_simulate_as_their_rows_alone(float64):

@@ -155,17 +155,14 @@ class RecordsProblem:
 def _chain(dy: torch.Tensor, dvdx: torch.Tensor) -> torch.Tensor:
     """``dy @ dvdx``: responses' derivatives ``(B, T, P)`` w.r.t. the parameter values, times the values'
     derivatives ``(B, P, F)`` w.r.t. the free coordinates. Where every free coordinate is one parameter's value (the
-    same 0/1 selection in every row: constants only) the product is those columns of ``dy``, taken as they are
-    (the same numbers; half the time of the batched product), unless a parameter left out has a non-finite
-    derivative, which the product would spread as NaN."""
+    same 0/1 selection in every row: constants only) and every derivative is finite, the product is those columns
+    of ``dy``, taken as they are (the same values, up to the sign of a zero; half the time of the batched product).
+    A non-finite derivative takes the product, which spreads it as NaN over its sample's other columns
+    (inf · 0), as the fits' and the Fisher analysis's checks expect."""
     first = dvdx[0]
     if (bool(((first == 0) | (first == 1)).all()) and bool((first.sum(dim=0) == 1).all())
-            and torch.equal(dvdx, first.expand_as(dvdx))):
-        sel = first.argmax(dim=0)
-        left = torch.ones(first.shape[0], dtype=torch.bool, device=first.device)
-        left[sel] = False
-        if not bool(left.any()) or bool(torch.isfinite(dy[..., left].sum())):
-            return dy.index_select(-1, sel)
+            and torch.equal(dvdx, first.expand_as(dvdx)) and bool(torch.isfinite(dy.sum()))):
+        return dy.index_select(-1, first.argmax(dim=0))
     return dy @ dvdx
 
 

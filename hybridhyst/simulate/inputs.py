@@ -17,8 +17,6 @@ def with_rates(u: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     channels = u.shape[-1]
     if channels not in (1, 2, 3):
         raise ValueError(f"input has {channels} channels; give 1 (u), 2 (u, du/dt) or 3 (u, du/dt, d2u/dt2)")
-    if channels == 3:
-        return u  # complete already (the same values a stack of its columns would copy)
     cols = [u[..., i] for i in range(channels)]
     edge = 2 if u.shape[1] >= 3 else 1
     while len(cols) < 3:
