@@ -111,7 +111,7 @@ class RecordsProblem:
         rest = []
         for (k, n), fn in self.space.functions.items():
             if type(fn) is Constant and fn.condition not in follow:  # its value is its coordinate: a unit column
-                j = self.space._columns[(k, n)][0]
+                j = self.space.columns[(k, n)][0]
                 out.setdefault(k, {})[n] = d = X.new_zeros(N * R, F)
                 if j in idx:
                     d[:, idx.index(j)] = 1.0

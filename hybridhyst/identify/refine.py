@@ -237,6 +237,14 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
     F = int(free.sum())
     free_index = torch.nonzero(free).reshape(-1)
     lam = torch.full((K,), 1e-3, dtype=torch.float64)
+
+    def jacobians(Wa: torch.Tensor, ra: torch.Tensor) -> tuple[torch.Tensor, int]:
+        """The Jacobians at the rows ``Wa`` (residuals ``ra``) and the simulated rows they cost."""
+        if jacobian_rows is None:
+            return _lm_jacobian(residual_rows, space, Wa, ra, h, free), Wa.shape[0] * F
+        _, Ja, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, Wa, free, h)
+        return Ja, Wa.shape[0] + differenced * F
+
     if jacobian_rows is None:
         r = _lm_residuals(residual_rows, space, W)
         J = _lm_jacobian(residual_rows, space, W, r, h, free)
@@ -263,25 +271,16 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             ok = new < cost[rows]
             evals += rows.numel()
             gain = (cost[rows] - new) / cost[rows].clamp_min(1e-300)
-            n_ok = int(ok.sum())
-            if n_ok == K:  # every row accepted: the new arrays replace the old ones, no copies
+            if bool(ok.all()) and rows.numel() == K:  # every row accepted: the new arrays replace the old ones
                 W, r, cost = W + step, r_new, new
-                if jacobian_rows is None:
-                    J = _lm_jacobian(residual_rows, space, W, r, h, free)
-                    evals += K * F
-                else:
-                    _, J, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W, free, h)
-                    evals += K + differenced * F
-            elif n_ok:  # Jacobians only where the step was accepted
+                J, n = jacobians(W, r)
+                evals += n
+            elif bool(ok.any()):  # Jacobians only where the step was accepted
                 acc = rows[ok]
                 W[acc] = W[acc] + step[ok]
                 r[acc], cost[acc] = r_new[ok], new[ok]
-                if jacobian_rows is None:
-                    J[acc] = _lm_jacobian(residual_rows, space, W[acc], r[acc], h, free)
-                    evals += n_ok * F
-                else:
-                    _, J[acc], differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W[acc], free, h)
-                    evals += n_ok + differenced * F
+                J[acc], n = jacobians(W[acc], r[acc])
+                evals += n
             # converged rows: a negligible gain from a nearly undamped (Gauss–Newton) step, or a damping only
             # refusals reach
             small = ok & (gain < rtol) & (lam[rows] <= 1.0)

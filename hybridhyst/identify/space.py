@@ -114,25 +114,26 @@ class Box:
         hi = torch.where(self.log, self.upper.log(), self.upper).to(like)
         return lo, hi
 
-    def from_unit(self, U: torch.Tensor) -> torch.Tensor:
-        """Unit-cube points ``(N, D)`` → coordinates (differentiable)."""
+    def _map(self, U: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Coordinates of the unit-cube points ``U``, with the span of each scale and which are logarithmic."""
         lo, hi = self._ends(U)
-        s = lo + (hi - lo) * U
+        span = hi - lo
+        s = lo + span * U
         log = self.log.to(U.device)
         # exp only where the scale is logarithmic: a linear coordinate's exp overflows for |s| > 709, and the
         # unused branch's inf · 0 would make its gradient NaN
-        return torch.where(log, torch.where(log, s, 0.0).exp(), s)
+        return torch.where(log, torch.where(log, s, 0.0).exp(), s), span, log
+
+    def from_unit(self, U: torch.Tensor) -> torch.Tensor:
+        """Unit-cube points ``(N, D)`` → coordinates (differentiable)."""
+        return self._map(U)[0]
 
     def from_logits(self, W: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Coordinates ``from_unit(sigmoid(W))`` ``(N, D)`` and their derivatives w.r.t. the logits ``W``
         (elementwise), without a backward pass: the same operations, in the same order, as autograd's backward of
         that map (``exp``'s result, the span, then the sigmoid's ``(1 − σ) σ``), so the same numbers."""
         U = torch.sigmoid(W)
-        lo, hi = self._ends(U)
-        span = hi - lo
-        s = lo + span * U
-        log = self.log.to(U.device)
-        X = torch.where(log, torch.where(log, s, 0.0).exp(), s)
+        X, span, log = self._map(U)
         ds = torch.where(log, X, torch.ones_like(X))  # dX/ds: exp's result on a log scale, 1 on a linear one
         return X, ds * span * (1 - U) * U
 
@@ -300,8 +301,8 @@ class SearchSpace(Box):
             raise ValueError("the model has no free parameters to identify; un-fix at least one")
         self.coordinates = coords
         where = {(c.effect, c.param, c.position): j for j, c in enumerate(coords)}
-        # each function's columns of a population, None for a held coordinate
-        self._columns = {f: [where.get((*f, i)) for i in range(k)] for f, k in self.sizes.items()}
+        # each (effect, parameter) function's columns of a population, in its coordinates' order; None for a held one
+        self.columns = {f: [where.get((*f, i)) for i in range(k)] for f, k in self.sizes.items()}
         log = [c.lower > 0 and c.upper / c.lower > 3 for c in coords]
         super().__init__([c.lower for c in coords], [c.upper for c in coords], log)
 
@@ -364,7 +365,7 @@ class SearchSpace(Box):
         """``(N, k)``: the coordinates of one parameter function, in order: a slice of ``X`` where they are
         adjacent free columns (most functions; this runs at every simulation of a fit), else gathered with the
         held ones."""
-        cols = self._columns[(key, pname)]
+        cols = self.columns[(key, pname)]
         if not cols:
             return X.new_zeros((X.shape[0], 0))
         if None not in cols and cols == list(range(cols[0], cols[0] + len(cols))):

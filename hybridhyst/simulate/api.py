@@ -51,7 +51,7 @@ def _as_conditions(conditions, batch: int, dtype, device, time: int | None = Non
             v = v.expand(batch)
         if v.ndim == 2 and time is not None and v.shape[1] == time:
             v = v.expand(batch, -1)
-            if not (bool(torch.isfinite(v.sum())) or bool(torch.isfinite(v).all())):
+            if not _all_finite(v):
                 raise ValueError(f"control {key!r} contains NaN/inf; clean the control channel first")
         elif v.shape != (batch,):
             raise ValueError(
@@ -265,6 +265,12 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     return y, dy, keys
 
 
+def _all_finite(x: torch.Tensor) -> bool:
+    """Whether every element of ``x`` is finite: a finite sum says so in one pass (a NaN or inf makes it
+    non-finite); only where it is not (a sum of finite values can overflow) element by element."""
+    return bool(torch.isfinite(x.detach().sum())) or bool(torch.isfinite(x).all())
+
+
 def _prepare(inputs, t, dt, dtype, device=None):
     """Validated input ``(batch, time, C)`` and time grid ``(time,)`` or ``(batch, time)`` (on ``device``
     where given)."""
@@ -276,7 +282,7 @@ def _prepare(inputs, t, dt, dtype, device=None):
     T = u.shape[1]
     if T < 2:
         raise ValueError(f"inputs have {T} time sample(s); simulation needs at least 2")
-    if not (bool(torch.isfinite(u.detach().sum())) or bool(torch.isfinite(u).all())):  # a finite sum: one pass
+    if not _all_finite(u):
         bad = (~torch.isfinite(u)).nonzero()[0].tolist()
         raise ValueError(f"inputs contain NaN/inf (first at batch {bad[0]}, sample {bad[1]}); clean the input first")
     if t is None:
@@ -340,13 +346,10 @@ def resolved_substeps(model, records, *, substeps: int | None = None, max_subste
     Returns ``(substeps, change)``: the change at the returned
     sub-steps (``inf`` where even ``max_substeps`` diverges; the caller says so).
     """
-    def response(s: int) -> torch.Tensor:
-        return _response(model, records, s, kwargs, outputs)
-
     def doubled(s: int) -> tuple[int, float]:
-        coarse = response(s)
+        coarse = _response(model, records, s, kwargs, outputs)
         while True:
-            fine = response(2 * s)
+            fine = _response(model, records, 2 * s, kwargs, outputs)
             change = _change(coarse, fine)
             if change <= tol or 2 * s > max_substeps:
                 return s, change
