@@ -22,6 +22,9 @@ from hybridhyst.physics.effects import (
     LuGre,
     Maxwell,
     Stribeck,
+    TravelDamping,
+    TravelDrift,
+    TravelStiffness,
     Viscous,
 )
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
@@ -86,6 +89,19 @@ def test_cubic_stiffness_value():
     x = torch.tensor([[0.0, 1.0, -2.0, 3.0]])
     F = respond(Constitutive([CubicStiffness(k3=0.5)]), x, dt=0.1)
     assert torch.allclose(F, torch.tensor([[0.0, 0.5, -4.0, 13.5]]), atol=1e-12)
+
+
+@pytest.mark.parametrize("effect, carrier", [
+    (lambda: TravelStiffness(dk=-0.3), lambda x, v: -0.3 * x),
+    (lambda: TravelDamping(dc=0.2), lambda x, v: 0.2 * v),
+    (lambda: TravelDrift(dF=0.4, v_s=1e-4), lambda x, v: 0.4 * torch.sign(v)),
+], ids=["stiffness", "damping", "friction"])
+def test_a_travel_drift_adds_its_coefficient_times_the_travel_so_far(effect, carrier):
+    # ramps out at +1 and −2: the travel is |v| t, so the force is (drift · |v| t) · (x, v or sgn v)
+    r = ramps([1.0, -2.0], 2.0, 0.01)
+    F = respond(Constitutive([effect()]), r["inputs"], t=r["t"])
+    x, v = r["inputs"][..., 0], r["inputs"][..., 1]
+    assert torch.allclose(F, v.abs() * r["t"] * carrier(x, v), atol=1e-9)
 
 
 def test_attenuation_value_constitutive():

@@ -147,3 +147,39 @@ def test_a_settled_model_is_not_simplified_again_without_a_rival():
     fit = polish(model, records, SIM, 25, 10.0)
     _, changes = _run(fit, records, SIM, settled=True)
     assert changes == [] and len(fit.model.effects) == 4
+
+
+def _dahl_records(z0: float) -> list[Record]:
+    """F = 2x + 0.2v + Dahl (σ0 10, Fc 0.5), its deflection z0 at each record's start: Dahl integrated exactly in
+    displacement (z relaxes towards ±Fc/σ0 as e^(−travel σ0/Fc) over each monotone step) on a 20× finer path."""
+    rng = np.random.default_rng(3)
+    sigma0, L = 10.0, 0.05  # L = Fc / σ0, Fc 0.5
+    out = []
+    for amp in (0.5, 1.0):
+        t = np.arange(0, 2.0 + 1e-9, 1 / 200)
+        tf = np.linspace(0, t[-1], 20 * (len(t) - 1) + 1)
+        xf = -amp * np.cos(2 * np.pi * tf)
+        z, zs = z0, [z0]
+        for dx in np.diff(xf):
+            s = np.sign(dx)
+            z = s * L + (z - s * L) * math.exp(-abs(dx) / L) if s else z
+            zs.append(z)
+        x, v = -amp * np.cos(2 * np.pi * t), 2 * np.pi * amp * np.sin(2 * np.pi * t)
+        y = 2 * x + 0.2 * v + sigma0 * np.asarray(zs)[::20] + 0.01 * rng.standard_normal(len(t))
+        out.append(Record(f"a{amp}", t, x, y, conditions={"amplitude_in": amp}))
+    return out
+
+
+def test_a_special_case_takes_over_the_start_state_of_the_effect_it_replaces():
+    # a clearance whose gap has closed is Dahl; the records start with the element deflected (z0 = -0.04), which
+    # the clearance's fitted start state carries: Dahl replaces it only with a start state of its own, free
+    from hybridhyst.physics.effects import Clearance
+
+    records = _dahl_records(-0.04)
+    model = Constitutive({"spring": LinearStiffness(k=2.0), "viscous": Viscous(c=0.2),
+                          "clearance": Clearance(sigma0=10.0, Fc=0.5, r=1e-4, q0=-0.03)}).double()
+    sim = SimulationSettings(substeps=2)
+    fit, changes = _run(polish(model, records, sim, 25, 10.0), records, sim)
+    assert [(c["effect"], c["by"]) for c in changes] == [("clearance", ["dahl"])]
+    dahl = fit.model.effects["dahl"]
+    assert float(dahl.params["z0"].value.detach()) == pytest.approx(-0.04, rel=0.1)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from .candidates import Candidate, effect_candidates
+from .candidates import Candidate, effect_candidates, start_candidates
 from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .result import Change
 from .rule import Acceptance, Judged
@@ -54,10 +54,25 @@ def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | Non
     swaps = [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in special]
     cases = [(c, "rival_swap") for c in swaps] if only_rivals else \
         [(c, "special_case") for c in special] + [(c, "rival_swap") for c in swaps]
+    started = any(name in effect.params for name in effect.start)
     for case, how in cases:
         new = [n for n in case if n not in present]
         if new:
-            yield case, reduced, combined(effect_candidates(reduced, scales, new)), how
+            yield case, reduced, _with_starts(effect_candidates(reduced, scales, new), reduced, scales, started), how
+
+
+def _with_starts(cands: list[Candidate], reduced, scales, started: bool) -> Candidate:
+    """The effects of ``cands`` added together; where the effect they replace had a fitted start state
+    (``started``), with the start states of those that can have one, free too: the records start where they did
+    (a clearance whose gap has closed is Dahl, but only with Dahl's own start state can it replace a clearance
+    that started away from its centre)."""
+    if started:
+        model = reduced
+        for c in cands:
+            model = c.build(model)
+        keys = {c.meta["key"] for c in cands}
+        cands = cands + [c for c in start_candidates(model, scales) if c.meta["key"] in keys]
+    return combined(cands)
 
 
 def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score, opts: dict, progress=None,

@@ -9,9 +9,9 @@ significant digit: a user weighs it). The loop runs on it with the one user sett
 Scoring (the effect words mapped to library families; ``FAMILIES``):
 
 * an effect whose family the library has: ``single`` (one effect) or ``pair`` (two), scored as in the first bed;
-* an effect the library has no family for (a stiffness that changes with travel, a drifting viscous damping,
-  direction-dependent damping, cogging, end stops): ``out_of_library``: nothing may be named, and the structure
-  should be flagged;
+* an effect the library has no family for (direction-dependent damping, cogging, end stops): ``out_of_library``:
+  nothing may be named, and the structure should be flagged (a stiffness that changes with travel and a drifting
+  viscous damping were such effects until the library gained ``travel_stiffness`` and ``travel_damping``);
 * no effect: ``clean``.
 
 These cases are not used for tuning: run them once, with the loop final (``scripts/discovery_testbed.py
@@ -37,18 +37,18 @@ FAMILIES: dict[str, frozenset[str] | None] = {
     "travel_friction": frozenset({"travel_drift"}),
     "relaxation": frozenset({"maxwell"}),
     "hysteretic": HYSTERETIC,
-    "travel_stiffness": None,
+    "travel_stiffness": frozenset({"travel_stiffness"}),
     "outside": None,
 }
 
 
 def family(word: str, case: blind.BlindCase) -> frozenset[str] | None:
-    """The library effects that name effect ``word`` in ``case`` (None where the library has none): a drift or
-    an asymmetry of a friction level is the library's travel drift or asymmetric Coulomb; of a damping it has
-    no family."""
+    """The library effects that name effect ``word`` in ``case`` (None where the library has none): a drift of a
+    friction level is the library's travel drift, of a viscous damping its travel damping; an asymmetry of a
+    friction level is asymmetric Coulomb, of a damping it has no family."""
     friction = "coulomb" in case.base_law
     if word == "drift":
-        return frozenset({"travel_drift"}) if friction else None
+        return frozenset({"travel_drift"}) if friction else frozenset({"travel_damping"})
     if word == "asymmetry":
         return frozenset({"asymmetric_coulomb"}) if friction else None
     return FAMILIES[word]

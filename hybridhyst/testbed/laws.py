@@ -73,6 +73,16 @@ def drift_law(k, c, Fc, dF, sign="arctan", width=0.01):
     return fine
 
 
+def softening_law(k0, s0, c, Fc, sign="arctan", width=0.01):
+    """k(s) x + c v + Fc sgn(v) with a stiffness that softens hyperbolically with the travel s since the record's
+    start, k(s) = k0 / (1 + s/s0) (not the library's form, a stiffness linear in s)."""
+    def fine(tf, sig):
+        x, v = sig.x(tf), sig.v(tf)
+        return k0 / (1.0 + g.cumulative_travel(x) / s0) * x + c * v + Fc * g.sgn(v, sign, width)
+
+    return fine
+
+
 def bw_law(k, c, Fy, xy, n, b):
     def law(t, sig):
         return k * sig.x(t) + c * sig.v(t) + g.bouc_wen_yield(t, sig, Fy, xy, n, b)

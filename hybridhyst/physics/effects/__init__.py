@@ -25,7 +25,9 @@ from .neural import NeuralEffect as NeuralEffect
 from .spencer import SpencerMR as SpencerMR
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
+from .travel_damping import TravelDamping as TravelDamping
 from .travel_drift import TravelDrift as TravelDrift
+from .travel_stiffness import TravelStiffness as TravelStiffness
 from .viscous import Viscous as Viscous
 
 EFFECTS: dict[str, type[Effect]] = {
@@ -48,6 +50,8 @@ EFFECTS: dict[str, type[Effect]] = {
         Attenuation,
         TimeDelay,
         TravelDrift,
+        TravelStiffness,
+        TravelDamping,
         ControlLag,
         ControlSaturation,
         SpencerMR,

@@ -1,4 +1,6 @@
-"""Friction level drifting with cumulative travel (wear, heating, run-in)."""
+"""A parameter drifting with cumulative travel (wear, heating, run-in): the friction level (``travel_drift``), and
+the base the stiffness's and the damping's drifts share (``TravelEffect``; ``travel_stiffness.py``,
+``travel_damping.py``)."""
 
 from __future__ import annotations
 
@@ -8,7 +10,20 @@ from ..parameters import ParameterSpec
 from .base import Effect, Kinematics, absolute, rates, smooth_sign
 
 
-class TravelDrift(Effect):
+class TravelEffect(Effect):
+    """Base of the drifts with travel: one state, the cumulative travel since the record started, ṡ = |v| (it
+    starts at 0 with every record). A subclass's force is the drift of one linear term's coefficient times s times
+    that term's carrier (the sign of v, x or v): the nominal's coefficient at travel s is its own plus the drift
+    times s, exactly for a term linear in its coefficient. A drift across records (one test after another) is a
+    parameter function of a condition instead. Not registered: it has no force of its own."""
+
+    state_dim = 1
+
+    def rate(self, p, kin: Kinematics, state):
+        return rates(absolute(kin.v))
+
+
+class TravelDrift(TravelEffect):
     """A sliding-friction level that changes in proportion to the distance travelled so far.
 
     State and force::
@@ -19,8 +34,8 @@ class TravelDrift(Effect):
     s [x] is the cumulative travel since the record started (the state starts at 0 with every record),
     so the friction level at travel s is the nominal's plus dF · s: dF > 0 for a level that grows (run-in,
     contamination), dF < 0 for one that fades (heating, wear of the pads). It is the discovery loop's
-    candidate for "slow drift / degradation of a parameter with cumulative travel"; a drift across records
-    (one test after another) is a parameter function of a condition instead.
+    candidate for "slow drift / degradation of the friction level with cumulative travel"; the stiffness's and
+    the damping's are ``travel_stiffness`` and ``travel_damping``.
 
     Units: dF [F/x] (real, neutral 0: no drift), v_s [x/t] (> 0, sign smoothing, as ``Coulomb``).
     Shapes: ``(batch,)``; state ``(batch, 1)``. Source: hybridhyst (a linear wear law, cf. Archard).
@@ -28,7 +43,6 @@ class TravelDrift(Effect):
 
     name = "travel_drift"
     example_values = {"dF": 0.4, "v_s": 0.2}
-    state_dim = 1
     equation = "ds/dt = |v|;  F = dF * s * tanh(v / v_s)"
     source = "hybridhyst: linear drift of the friction level with cumulative travel"
     specs: ClassVar[dict[str, ParameterSpec]] = {
@@ -36,9 +50,6 @@ class TravelDrift(Effect):
                             doc="change of the friction level per unit travel"),
         "v_s": ParameterSpec(1e-3, "x/t", (1e-9, 1e6), "positive", doc="sign-smoothing velocity", smoothing=True),
     }
-
-    def rate(self, p, kin: Kinematics, state):
-        return rates(absolute(kin.v))
 
     def force(self, p, kin: Kinematics, state):
         return p["dF"] * state[:, 0] * smooth_sign(kin.v, p["v_s"])

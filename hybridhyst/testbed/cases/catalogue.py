@@ -18,6 +18,7 @@ from ..laws import (
     p_linear,
     play_law,
     rough_law,
+    softening_law,
     static_law,
     vpptd_records,
 )
@@ -141,6 +142,12 @@ def _build_cases() -> list[Case]:
                                     noise=0.03, seed=14, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
               "2x + 0.2v + (0.4 + 0.04 s) arctan sign, s = travel; nominal spring + viscous + Coulomb", "100"))
+    # the secant slope of k0/(1 + s/s0) over the training records' travel (0–12 in) is -0.0217; its tangent at 0 -0.025
+    add(_case("travel_stiffness", "single", [{"travel_stiffness"}], [("travel_stiffness.dk", -0.0225, 0.20)], 0.03,
+              lambda: _sine_records("travel_stiffness", STD, softening_law(2.0, 80.0, 0.2, 0.4), spc=100, cycles=3,
+                                    noise=0.03, seed=29, refine=20),
+              lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.3), "coulomb": _coul(0.6)}), STD_SPLIT,
+              "2/(1 + s/80) x + 0.2v + 0.4 arctan sign, s = travel; nominal spring + viscous + Coulomb", "100"))
     add(_case("maxwell", "single", [{"maxwell"}], [("maxwell.k_m", 2.0, 0.15), ("maxwell.tau", 0.1, 0.15)], 0.03,
               maxwell_records,
               lambda: _damper({"spring": _spring(2.0), "viscous": _visc(0.3)}), FREQ_SPLIT,

@@ -1,0 +1,38 @@
+"""Viscous damping drifting with cumulative travel (a fluid that thins as it heats)."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from ..parameters import ParameterSpec
+from .base import Kinematics
+from .travel_drift import TravelEffect
+
+
+class TravelDamping(TravelEffect):
+    """A viscous coefficient that changes in proportion to the distance travelled so far.
+
+    State and force::
+
+        ṡ = |v|
+        F = dc · s · v
+
+    s [x] is the cumulative travel since the record started (0 at its start), so the damping at travel s is the
+    nominal's plus dc · s: dc < 0 for a damper whose fluid thins as the work heats it, dc > 0 for one that
+    thickens.
+
+    Units: dc [F·t/x²] (real, neutral 0: no drift). Shapes: ``(batch,)``; state ``(batch, 1)``.
+    Source: hybridhyst (a damping linear in cumulative travel; the friction level's is ``travel_drift``).
+    """
+
+    name = "travel_damping"
+    example_values = {"dc": -0.05}
+    equation = "ds/dt = |v|;  F = dc * s * v"
+    source = "hybridhyst: linear drift of the viscous damping with cumulative travel"
+    specs: ClassVar[dict[str, ParameterSpec]] = {
+        "dc": ParameterSpec(0.0, "F*t/x^2", (-1e9, 1e9), "real", neutral=0.0,
+                            doc="change of the viscous coefficient per unit travel"),
+    }
+
+    def force(self, p, kin: Kinematics, state):
+        return p["dc"] * state[:, 0] * kin.v

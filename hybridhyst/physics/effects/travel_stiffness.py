@@ -1,0 +1,38 @@
+"""Stiffness drifting with cumulative travel (a rubber or particle bed that softens as it is worked)."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from ..parameters import ParameterSpec
+from .base import Kinematics
+from .travel_drift import TravelEffect
+
+
+class TravelStiffness(TravelEffect):
+    """A stiffness that changes in proportion to the distance travelled so far.
+
+    State and force::
+
+        ṡ = |v|
+        F = dk · s · x
+
+    s [x] is the cumulative travel since the record started (0 at its start), so the spring's stiffness at travel
+    s is the nominal's plus dk · s: dk < 0 for a spring that softens as it is worked (Mullins-like softening of
+    an elastomer, a particle bed that loosens), dk > 0 for one that stiffens (compaction).
+
+    Units: dk [F/x²] (real, neutral 0: no drift). Shapes: ``(batch,)``; state ``(batch, 1)``.
+    Source: hybridhyst (a stiffness linear in cumulative travel; the friction level's is ``travel_drift``).
+    """
+
+    name = "travel_stiffness"
+    example_values = {"dk": -0.3}
+    equation = "ds/dt = |v|;  F = dk * s * x"
+    source = "hybridhyst: linear drift of the stiffness with cumulative travel"
+    specs: ClassVar[dict[str, ParameterSpec]] = {
+        "dk": ParameterSpec(0.0, "F/x^2", (-1e9, 1e9), "real", neutral=0.0,
+                            doc="change of the stiffness per unit travel"),
+    }
+
+    def force(self, p, kin: Kinematics, state):
+        return p["dk"] * state[:, 0] * kin.x
