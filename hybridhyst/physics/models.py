@@ -156,7 +156,8 @@ class NominalModel(nn.Module):
         """
         import copy
 
-        new = copy.deepcopy(self)
+        # the effects in place are replaced: the copy does not copy them first (memo: they copy to an empty dict)
+        new = copy.deepcopy(self, {id(self.effects): nn.ModuleDict()})
         new._init_layout(nn.ModuleDict({k: copy.deepcopy(e) for k, e in effects.items()}))
         return new
 

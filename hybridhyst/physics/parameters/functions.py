@@ -104,7 +104,7 @@ class Polynomial(ParameterFunction):
     def at(self, coords, c):
         value = coords[0]
         for i in range(1, len(coords)):
-            value = value + coords[i] * c**i
+            value = value + coords[i] * (c if i == 1 else c**i)  # c**1 is c, bit for bit; a power costs more
         return value
 
     def describe(self) -> str:
