@@ -37,6 +37,28 @@ def test_near_the_noise_an_addition_must_remove_more_than_half_a_noise_variance(
     assert rule.adds(Judged(1.0, 9.0), Judged(1.5, 10.0))  # a real effect near the noise: 1.25 σ² removed
 
 
+def test_a_refusal_names_each_requirement_the_addition_failed_and_only_those():
+    rule = _rule(noise=1.0)
+    # a 2.9 % fall passes the margin, but 0.06 σ² removed is within the noise: only that is named
+    within = rule.refusal(Judged(1.02, 9.0), Judged(1.05, 10.0))
+    assert len(within) == 1 and "noise variance" in within[0] and "margin" not in within[0]
+    assert [("margin" in w, "criterion" in w) for w in rule.refusal(Judged(2.95, 11.0), Judged(3.0, 10.0))] == [
+        (True, False), (False, False), (False, True)]  # 1.7 %, 0.30 σ², the criterion rose: all three
+    assert rule.refusal(Judged(1.0, 9.0), Judged(1.5, 10.0)) == []  # accepted: nothing to name
+    assert _rule().refusal(Judged(0.99, 9.0), Judged(1.0, 10.0)) == [
+        "the out-of-sample RMSE did not fall by more than the margin (2%)"]  # no noise level: no noise clause
+
+
+def test_the_summary_says_why_the_candidate_that_stopped_the_loop_was_refused():
+    from hybridhyst.cli.discover import summary_lines
+
+    why = _rule(noise=1.0).refusal(Judged(1.02, 9.0), Judged(1.05, 10.0))
+    report = {"steps": [], "removed": [], "before": {}, "after": {},
+              "rejected": [{"effect": "lugre", "kind": "effect", "accepted": False, "refused_by": why}]}
+    assert summary_lines(report, "N", "run")[0] == f"discovery: added nothing; best remaining candidate not accepted: " \
+        f"lugre ({why[0]})"
+
+
 def test_a_simpler_model_within_the_noise_replaces_the_richer_one():
     rule = _rule(noise=1.0)
     assert rule.simpler(Judged(1.2, 9.0), Judged(1.0, 10.0))  # 0.44 σ² more: within the noise

@@ -70,11 +70,14 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     u = f" {unit}" if unit else ""
     added = [name(s) for s in report.get("steps") or [] if s.get("accepted", True)]
     removed = [str(s["effect"]) for s in report.get("removed") or []]
-    rejected = [name(s) for s in report.get("rejected") or [] if s.get("kind") != "trend"
+    rejected = [s for s in report.get("rejected") or [] if s.get("kind") != "trend"
                 and s.get("when") != AFTER_ADDED]  # the best candidate of the step that stopped the loop
     line = "discovery: added " + ("; ".join(added) if added else "nothing")
     line += f"; removed {', '.join(removed)}" if removed else ""
-    line += f"; best remaining candidate not accepted: {rejected[0]}" if rejected else ""
+    if rejected:
+        why = rejected[0].get("refused_by")
+        line += f"; best remaining candidate not accepted: {name(rejected[0])}" + (
+            f" ({'; '.join(why)})" if why else "")
     lines = [line]
     lines += [f"  {text}" for text in
               (disagreement_line(s, unit) for s in (report.get("steps") or []) + (report.get("rejected") or []))

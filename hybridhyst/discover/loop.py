@@ -282,7 +282,7 @@ class Loop:
         judged = self.judge(t_fit)
         accepted = self.rule.adds(judged, self.now)
         step = self._step(f"trends~{cond}", "trend", description, t_fit, judged, self.now, accepted, when=when,
-                          trends=chosen)
+                          trends=chosen, **({} if accepted else {"refused_by": self.rule.refusal(judged, self.now)}))
         if accepted:
             step.accepted = accepted = self._confirmed(step, t_fit)
         (self.steps if accepted else self.rejected).append(step)
@@ -318,21 +318,25 @@ class Loop:
         finals = [(cand, f, self.judge(f)) for cand, f in ranking[: int(o.top)] if f is not None]
         if not finals:
             return False
-        def adds(i: int) -> bool:
+        def ic_ref(f: Fit) -> float:
             # the current model at the candidate's resolution, too: one that needed finer steps must beat it there
+            return min(self.now.ic, information_criterion(ref[f.substeps], self.n_train, fit.k, self.rule.criterion))
+
+        def adds(i: int) -> bool:
             _, f, j = finals[i]
-            ic_ref = information_criterion(ref[f.substeps], self.n_train, fit.k, self.rule.criterion)
-            return self.rule.adds(j, Judged(self.now.val, min(self.now.ic, ic_ref)))
+            return self.rule.adds(j, Judged(self.now.val, ic_ref(f)))
 
         index = self.rule.pick([j for _, _, j in finals], adds)
         cand, c_fit, judged = finals[index]
         accepted = adds(index)
+        reference = Judged(self.now.val, ic_ref(c_fit))  # what the candidate was judged against
         step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, self.now, accepted, evidence={
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
             "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
                          for f in finals}},
             new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps,
-            **({"when": when} if when else {}))
+            **({"when": when} if when else {}),
+            **({} if accepted else {"refused_by": self.rule.refusal(judged, reference)}))
         if accepted:
             polished = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
             step.accepted = accepted = self._confirmed(step, polished)

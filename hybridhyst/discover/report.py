@@ -233,15 +233,18 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
             continue
         if s.get("outcome") == "constant":
             lines += [f"The condition trends, **{s['effect']}**, changed nothing: fitted level by level, every "
-                      f"parameter's values were best described by a constant ({len(s['trends'])} tried).", ""]
+                      f"parameter's values were best described by a constant ({len(s['trends'])} "
+                      f"parameter{'s' if len(s['trends']) != 1 else ''} tried).", ""]
             continue
         moved = f"{_fmt(ev['val_rmse_before'])} → {_fmt(ev['val_rmse_after'])} {unit}{_other_parts(ev, unit, True)}"
         what = (f"The condition trends, **{s['effect']}**, were not taken" if s["kind"] == "trend" else
                 f"The start state **{s['effect']}**, offered {AFTER_ADDED}, was not taken"
                 if s.get("when") == AFTER_ADDED else
                 f"The loop stopped at the best remaining candidate, **{s['effect']}**")
-        lines += [f"{what}: {scored} RMSE {moved} (margin {r['settings']['margin']:.0%} required) and the "
-                  f"information criterion {_fmt(_ic(ev, 'before'))} → {_fmt(_ic(ev, 'after'))}.", ""]
+        why = ("; refused: " + "; ".join(s["refused_by"])) if s.get("refused_by") else \
+            f" (margin {r['settings']['margin']:.0%} required)"
+        lines += [f"{what}: {scored} RMSE {moved} and the information criterion {_fmt(_ic(ev, 'before'))} → "
+                  f"{_fmt(_ic(ev, 'after'))}{why}.", ""]
     u = r["unexplained"]
     dep = sorted(u["dependence"].items(), key=lambda kv: -kv[1])[:4]
     lines += ["## What is left", "",

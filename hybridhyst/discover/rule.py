@@ -92,6 +92,18 @@ class Acceptance:
         return (improves(new.val, old.val, self.margin) and new.ic < old.ic
                 and all(g > self.floor for g in self._gains(new.val, old.val)))
 
+    def refusal(self, new: Judged, old: Judged) -> list[str]:
+        """Which of ``adds``'s requirements a richer model ``new`` failed, each in words (empty: it passes)."""
+        out = []
+        if not improves(new.val, old.val, self.margin):
+            out.append(f"the out-of-sample RMSE did not fall by more than the margin ({self.margin:.0%})")
+        if not all(g > self.floor for g in self._gains(new.val, old.val)):
+            out.append(f"its mean square did not fall by more than {self.share:g} noise variance ({self.share:g} σ², "
+                       f"σ = {self.noise:.4g}): within the noise")
+        if not new.ic < old.ic:
+            out.append(f"the information criterion ({self.criterion.upper()}) did not fall")
+        return out
+
     def simpler(self, new: Judged, old: Judged) -> bool:
         """Whether a simpler model ``new`` may replace ``old``: it loses at most half the margin, or stays within
         the noise of it."""
