@@ -55,8 +55,8 @@ def test_the_summary_says_why_the_candidate_that_stopped_the_loop_was_refused():
     why = _rule(noise=1.0).refusal(Judged(1.02, 9.0), Judged(1.05, 10.0))
     report = {"steps": [], "removed": [], "before": {}, "after": {},
               "rejected": [{"effect": "lugre", "kind": "effect", "accepted": False, "refused_by": why}]}
-    assert summary_lines(report, "N", "run")[0] == f"discovery: added nothing; best remaining candidate not accepted: " \
-        f"lugre ({why[0]})"
+    first = summary_lines(report, "N", "run")[0]
+    assert first == f"discovery: added nothing; best remaining candidate not accepted: lugre ({why[0]})"
 
 
 def test_a_simpler_model_within_the_noise_replaces_the_richer_one():
