@@ -45,8 +45,11 @@ def test_a_refusal_names_each_requirement_the_addition_failed_and_only_those():
     assert [("margin" in w, "criterion" in w) for w in rule.refusal(Judged(2.95, 11.0), Judged(3.0, 10.0))] == [
         (True, False), (False, False), (False, True)]  # 1.7 %, 0.30 σ², the criterion rose: all three
     assert rule.refusal(Judged(1.0, 9.0), Judged(1.5, 10.0)) == []  # accepted: nothing to name
+    # an error that rose fails the margin; it is not "within the noise", with a noise level or without one
+    assert [("margin" in w) for w in rule.refusal(Judged(1.1, 9.0), Judged(1.0, 10.0))] == [True]
+    assert [("margin" in w) for w in _rule().refusal(Judged(1.1, 11.0), Judged(1.0, 10.0))] == [True, False]
     assert _rule().refusal(Judged(0.99, 9.0), Judged(1.0, 10.0)) == [
-        "the out-of-sample RMSE did not fall by more than the margin (2%)"]  # no noise level: no noise clause
+        "the judged RMSE did not fall by more than the margin (2%)"]  # no noise level: no noise clause
 
 
 def test_the_summary_says_why_the_candidate_that_stopped_the_loop_was_refused():

@@ -183,3 +183,25 @@ def test_a_special_case_takes_over_the_start_state_of_the_effect_it_replaces():
     assert [(c["effect"], c["by"]) for c in changes] == [("clearance", ["dahl"])]
     dahl = fit.model.effects["dahl"]
     assert float(dahl.params["z0"].value.detach()) == pytest.approx(-0.04, rel=0.1)
+
+
+def test_a_swap_seeds_the_new_start_state_at_the_replaced_ones_and_ignores_a_held_one():
+    from hybridhyst.discover.selection import _alternatives
+    from hybridhyst.physics.effects import Clearance
+
+    records = _dahl_records(-0.04)
+    scales = Scales.of(records)
+
+    def swap(clearance):
+        model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": clearance}).double()
+        fit = polish(model, records, SimulationSettings(substeps=2), 0, 10.0)
+        return next(c for case, _, c, _ in _alternatives(fit, "clearance", scales) if case == ("dahl",))
+
+    cand = swap(Clearance(sigma0=10.0, Fc=0.5, r=1e-4, q0=-0.03))
+    assert "dahl.z0" in cand.free
+    seeded = [s["dahl.z0"] for s in cand.starts]
+    # the fitted q0 with every start of Dahl's parameters, then the start candidates' grid
+    n = len({tuple(sorted((k, v) for k, v in s.items() if k != "dahl.z0")) for s in cand.starts})
+    assert seeded[:n] == [pytest.approx(-0.03)] * n and 0.0 in seeded[n:]
+    held = swap(Clearance(sigma0=10.0, Fc=0.5, r=1e-4, q0=-0.03, fixed=["q0"]))
+    assert "dahl.z0" not in held.free  # a start state the user held is not a fitted one

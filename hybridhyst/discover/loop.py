@@ -330,7 +330,7 @@ class Loop:
         cand, c_fit, judged = finals[index]
         accepted = adds(index)
         reference = Judged(self.now.val, ic_ref(c_fit))  # what the candidate was judged against
-        step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, self.now, accepted, evidence={
+        step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, reference, accepted, evidence={
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
             "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
                          for f in finals}},

@@ -96,9 +96,11 @@ class Acceptance:
         """Which of ``adds``'s requirements a richer model ``new`` failed, each in words (empty: it passes)."""
         out = []
         if not improves(new.val, old.val, self.margin):
-            out.append(f"the out-of-sample RMSE did not fall by more than the margin ({self.margin:.0%})")
-        if not all(g > self.floor for g in self._gains(new.val, old.val)):
-            out.append(f"its mean square did not fall by more than {self.share:g} noise variance ({self.share:g} σ², "
+            out.append(f"the judged RMSE did not fall by more than the margin ({self.margin:.0%})")
+        gains = self._gains(new.val, old.val)
+        if self.floor > 0 and all(g > 0 for g in gains) and not all(g > self.floor for g in gains):
+            # (an error that rose fails the margin already: it is not "within the noise")
+            out.append(f"its mean square fell by no more than {self.share:g} noise variance ({self.share:g} σ², "
                        f"σ = {self.noise:.4g}): within the noise")
         if not new.ic < old.ic:
             out.append(f"the information criterion ({self.criterion.upper()}) did not fall")

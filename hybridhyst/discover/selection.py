@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from ..physics.parameters import Fixed
 from .candidates import Candidate, effect_candidates, start_candidates
 from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .result import Change
@@ -54,24 +55,36 @@ def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | Non
     swaps = [(r,) for r in (rivals or {}).get(effect.name, ()) if r != effect.name and (r,) not in special]
     cases = [(c, "rival_swap") for c in swaps] if only_rivals else \
         [(c, "special_case") for c in special] + [(c, "rival_swap") for c in swaps]
-    started = any(name in effect.params for name in effect.start)
     for case, how in cases:
         new = [n for n in case if n not in present]
         if new:
-            yield case, reduced, _with_starts(effect_candidates(reduced, scales, new), reduced, scales, started), how
+            yield case, reduced, _with_starts(effect_candidates(reduced, scales, new), reduced, scales, effect), how
 
 
-def _with_starts(cands: list[Candidate], reduced, scales, started: bool) -> Candidate:
-    """The effects of ``cands`` added together; where the effect they replace had a fitted start state
-    (``started``), with the start states of those that can have one, free too: the records start where they did
-    (a clearance whose gap has closed is Dahl, but only with Dahl's own start state can it replace a clearance
-    that started away from its centre)."""
-    if started:
-        model = reduced
-        for c in cands:
-            model = c.build(model)
-        keys = {c.meta["key"] for c in cands}
-        cands = cands + [c for c in start_candidates(model, scales) if c.meta["key"] in keys]
+def _with_starts(cands: list[Candidate], reduced, scales, replaced) -> Candidate:
+    """The effects of ``cands`` added together; where the effect they replace (``replaced``) had a fitted start
+    state, with the start states of those that can have one, free too: the records start where they did (a
+    clearance whose gap has closed is Dahl, but only with Dahl's own start state can it replace a clearance that
+    started away from its centre). Each new start state is tried at the replaced one's fitted value where their
+    units match (else 0) with every start of the effects, then at ``start_candidates``' values; a start state the
+    user held (``fixed``) is not a fitted one."""
+    fitted = {spec.unit: float(replaced.params[name].value.detach()) for name, spec in replaced.start.items()
+              if name in replaced.params and not isinstance(replaced.params[name], Fixed)}
+    if not fitted:
+        return combined(cands)
+    model = reduced
+    for c in cands:
+        model = c.build(model)
+    keys = {c.meta["key"] for c in cands}
+    n = max(len(c.starts) for c in cands)
+    for s in [c for c in start_candidates(model, scales) if c.meta["key"] in keys]:
+        effect = model.effects[s.meta["key"]]
+        seeded = {f"{s.meta['key']}.{name}": fitted.get(spec.unit, 0.0) for name, spec in effect.start.items()}
+        seeded = {k: min(max(v, s.bounds[k][0]), s.bounds[k][1]) for k, v in seeded.items()}
+        # combined() pairs the i-th starts (a shorter list repeats its last): the seeded state with each of the
+        # effects' n starts, then the grid with their last
+        s.starts = [seeded] * n + [g for g in s.starts if g != seeded]
+        cands = cands + [s]
     return combined(cands)
 
 
