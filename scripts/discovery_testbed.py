@@ -8,6 +8,8 @@ the truth. Writes the table into ``experiments/discovery_testbed/README.md`` (be
     PYTHONPATH=. python scripts/discovery_testbed.py --fast        # the two small cases of the default tests
     PYTHONPATH=. python scripts/discovery_testbed.py --bed blind --json experiments/discovery_testbed/blind.json \
         --write-readme   # the blind bed: once, with the loop final
+    PYTHONPATH=. python scripts/discovery_testbed.py --bed blind2 --json experiments/discovery_testbed/blind2.json \
+        --write-readme   # the second blind bed, likewise
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 README = ROOT / "experiments" / "discovery_testbed" / "README.md"
 MARKERS = {"first": ("<!-- results:start -->", "<!-- results:end -->"),
-           "blind": ("<!-- blind:start -->", "<!-- blind:end -->")}
+           "blind": ("<!-- blind:start -->", "<!-- blind:end -->"),
+           "blind2": ("<!-- blind2:start -->", "<!-- blind2:end -->")}
 
 
 def write_readme(section: str, path: Path = README, bed: str = "first") -> None:
@@ -64,9 +67,9 @@ def main(argv=None) -> list[dict]:
     from hybridhyst.testbed.run import markdown, run_bed, summary
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--bed", choices=("first", "blind"), default="first",
-                    help="which bed: the first (hybridhyst/testbed/cases.py, default) or the blind one "
-                    "(hybridhyst/testbed/blind.py, run once with the loop final: not for tuning)")
+    ap.add_argument("--bed", choices=("first", "blind", "blind2"), default="first",
+                    help="which bed: the first (hybridhyst/testbed/cases/, default) or a blind one "
+                    "(hybridhyst/testbed/blind/ or blind2/, run once with the loop final: not for tuning)")
     ap.add_argument("--cases", help="comma-separated case names (default: all)")
     ap.add_argument("--fast", action="store_true", help=f"only the small cases {', '.join(FAST_CASES)}")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
@@ -81,10 +84,11 @@ def main(argv=None) -> list[dict]:
     args = ap.parse_args(argv)
     if args.write_readme and (args.validation != "records" or args.no_start_states or args.cross_check != "confirm"):
         ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
-    if args.bed == "blind":
-        from hybridhyst.testbed.blind_cases import BLIND_CASE_BY_NAME, BLIND_CASES
+    if args.bed != "first":
+        from hybridhyst.testbed.blind_cases import bed_cases
 
-        CASE_BY_NAME, CASES = BLIND_CASE_BY_NAME, BLIND_CASES  # noqa: N806
+        CASES = bed_cases(args.bed)  # noqa: N806
+        CASE_BY_NAME = {c.name: c for c in CASES}  # noqa: N806
     names = args.cases.split(",") if args.cases else list(FAST_CASES) if args.fast else [c.name for c in CASES]
     unknown = [n for n in names if n not in CASE_BY_NAME]
     if unknown:

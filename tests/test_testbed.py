@@ -118,9 +118,6 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     """The blind bed (``testbed/blind/``, written without the library): every case builds records, a nominal of
     its declared base law that simulates, and a split; an effect the library has a family for is scored as an
     effect case, one it lacks as out of library, no effect as a clean control."""
-    import torch
-
-    from hybridhyst.simulate import simulate
     from hybridhyst.testbed import blind
     from hybridhyst.testbed.blind_cases import BLIND_CASES, family
 
@@ -139,12 +136,46 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     assert score(clean, _report([], trends=["trends~pressure_kpa"]), 1.0)["ok_effect"]
     assert not score(clean, _report([], trends=["spring.k~amplitude"]), 1.0)["ok_effect"]
     assert family("asymmetry", blind.case("asymmetric_viscous_damper")) is None
-    for case in BLIND_CASES:
+    _every_case_builds_splits_and_simulates(BLIND_CASES)
+
+
+def _every_case_builds_splits_and_simulates(cases):
+    import torch
+
+    from hybridhyst.simulate import simulate
+
+    for case in cases:
         records = case.records()
         train, val, test = records.split(**case.split)
         assert len(train.records) >= 3 and len(test.records) >= 1, case.name
         out = simulate(case.nominal(), [train.records[0]], backend="reference")
         assert bool(torch.isfinite(out[0]).all()), case.name
+
+
+def test_the_second_blind_bed_is_scored_like_the_first():
+    """The second blind bed (``testbed/blind2/``, another author): at least 16 cases with clean controls, effect
+    cases and out-of-library ones; every case builds, splits and simulates its declared nominal; an oscillator's
+    mass is the one its author declared; a case name is found in either bed and built alone."""
+    from hybridhyst.testbed import blind2
+    from hybridhyst.testbed.blind_cases import _nominal, bed_cases, blind_case
+    from hybridhyst.testbed.run import _registered
+
+    cases = bed_cases("blind2")
+    assert len(cases) >= 16
+    categories = [c.category for c in cases]
+    assert categories.count("clean") >= 4 and categories.count("out_of_library") >= 2
+    assert categories.count("single") + categories.count("pair") >= 10
+    assert not {c.name for c in cases} & {c.name for c in bed_cases("blind")}  # one name, one case
+    _every_case_builds_splits_and_simulates(cases)
+    for fn in blind2.CASES:
+        spec = fn()
+        if spec.kind == "oscillator":
+            model = _nominal(spec)
+            mass = float(model.structure_params.mass.value.detach())  # [N s²/mm] or [N s²/m]
+            assert mass == pytest.approx(spec.mass_kg * {"mm": 1e-3, "m": 1.0}[spec.units["y"]], rel=1e-6)
+    name = cases[0].name
+    assert blind_case(name) is _registered(name) is cases[0]
+    assert blind_case("no_such_case") is None
 
 
 # -- (e) one small case end to end -------------------------------------------------------------------------------

@@ -165,12 +165,12 @@ def _init_worker() -> None:
 
 
 def _registered(name: str) -> Case | None:
-    """The case of that name in either bed (the first, ``cases.CASES``, or the blind one)."""
+    """The case of that name in any bed (the first, ``cases.CASES``, or a blind one)."""
     if name in CASE_BY_NAME:
         return CASE_BY_NAME[name]
-    from .blind_cases import BLIND_CASE_BY_NAME
+    from .blind_cases import blind_case
 
-    return BLIND_CASE_BY_NAME.get(name)
+    return blind_case(name)
 
 
 def _run_named(name: str, options: dict | None = None) -> dict:
@@ -193,8 +193,8 @@ def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options
         return rows
     unknown = [c.name for c in cases if _registered(c.name) is not c]
     if unknown:
-        raise ValueError("run_bed with jobs > 1 takes cases from hybridhyst.testbed.cases.CASES or blind_cases."
-                         f"BLIND_CASES; not there: {unknown}")
+        raise ValueError("run_bed with jobs > 1 takes cases from hybridhyst.testbed.cases.CASES or a blind bed "
+                         f"(blind_cases.bed_cases); not there: {unknown}")
     out: dict[str, dict] = {}
     with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker) as pool:
         order = sorted(cases, key=lambda c: -(cost or {}).get(c.name, 0.0))  # stable: unknown costs keep their order
