@@ -10,6 +10,7 @@ from hybridhyst.data.datamodule import RecordDataModule
 from hybridhyst.data.records import Record
 from hybridhyst.physics.effects import EFFECTS
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
+from hybridhyst.simulate import simulate
 from hybridhyst.training.losses import data_loss
 from hybridhyst.training.modules import HybridModule, PhysicsModule
 
@@ -111,3 +112,50 @@ def test_encoder_options_are_checked():
     assert encoder_past(OmegaConf.create({"module": "hybrid", "encoder": {"past": 16}})) == 16
     with pytest.raises(ValueError, match="belongs to a module with a nominal model"):
         encoder_past(OmegaConf.create({"module": "lstm", "encoder": {"past": 16}}))
+
+
+def test_windows_start_where_a_run_of_the_whole_record_has_its_states():
+    """window_start="run": a window inside a record starts at the measured (y, ẏ) and, for every other state
+    (the network's latent ones), where a simulation of the whole record from rest with the current weights is
+    at the window's first sample; a window at a record's start starts at rest. New weights, new run."""
+    dm = RecordDataModule(_records(), window=64, warmup=8, batch_size=64)
+    dm.setup("fit")
+    torch.manual_seed(1)
+    hybrid = HybridModule(_oscillator(), dm.normaliser.to_dict(), hidden="1x8", placement="dynamics",
+                          latent_states=2, latent_form="duhem", window_start="run", backend="reference")
+    for p in hybrid.net.net.parameters():
+        torch.nn.init.normal_(p, std=0.5)
+    hybrid.refresh_run_states(dm)
+    whole = dm.whole("train")
+    batch = next(iter(dm.train_dataloader()))
+    with torch.no_grad():
+        s0 = hybrid._initial_state(batch)
+    checked = 0
+    for j in range(batch["t"].shape[0]):
+        i, s = int(batch["index"][j]), int(batch["start"][j])
+        if s == 0:
+            assert torch.equal(s0[j], torch.zeros(4, dtype=s0.dtype))
+            continue
+        assert torch.equal(s0[j, :2], batch["y0"][j])  # measured displacement and velocity
+        w = {k: v[None] for k, v in whole[i].items()}
+        with torch.no_grad():
+            _, states = simulate(hybrid.model, torch.stack([w["u"], w["du"], w["ddu"]], -1), t=w["t"] - w["t"][:, :1],
+                                 return_states=True)
+        assert torch.allclose(s0[j, 2:], states[0, s, 2:], rtol=1e-12, atol=1e-14)
+        assert float(s0[j, 2:].abs().max()) > 1e-3  # a latent state that has moved
+        checked += 1
+    assert checked
+    with torch.no_grad():
+        hybrid.net.net.head.weight.mul_(0.5)  # new weights: the stored run is refreshed (every epoch in training)
+    hybrid.refresh_run_states(dm)
+    with torch.no_grad():
+        assert not torch.equal(hybrid._initial_state(batch)[:, 2:], s0[:, 2:])
+    hybrid.eval()  # whole records (validation, test) start at rest as before
+    with torch.no_grad():
+        assert torch.equal(hybrid._initial_state(batch), PhysicsModule(_oscillator(), dm.normaliser.to_dict())
+                           ._initial_state(batch))
+    with pytest.raises(ValueError, match="choose one"):
+        HybridModule(_oscillator(), dm.normaliser.to_dict(), hidden="1x8", placement="dynamics", latent_states=1,
+                     encoder_past=8, window_start="run")
+    with pytest.raises(ValueError, match="unknown window_start"):
+        PhysicsModule(_oscillator(), dm.normaliser.to_dict(), window_start="measured")

@@ -50,7 +50,8 @@ def test_zero_network_gives_exactly_the_nominal(make):
 
 
 def _five_networks(structure):
-    """One network per activation, with and without latent states, reading x, v, u, du and a condition;
+    """One network per activation, with and without latent states (free and Duhem's form), reading x, v, u, du
+    and a condition;
     behind a play (a bounded state) and beside a Dahl element: one compilation covers every code path."""
     torch.manual_seed(3)
     nets = {
@@ -58,7 +59,8 @@ def _five_networks(structure):
                                conditions={"p": (0.05, 0.02)}),
         "n_relu": NeuralEffect(inputs=("x", "v", "u", "du"), hidden=[5, 4], activation="relu",
                                scales={"x": 0.5, "v": 3.0, "u": 0.7, "du": 4.0, "F": 0.3}),
-        "n_gelu": NeuralEffect(latent_states=1, hidden="1x5", activation="gelu", scales={"F": 0.2}),
+        "n_gelu": NeuralEffect(latent_states=1, hidden="1x5", activation="gelu", scales={"F": 0.2},
+                               latent_form="duhem"),
         "n_silu": NeuralEffect(inputs=("v",), hidden="1x4", activation="silu", scales={"v": 3.0, "F": 0.2}),
         "n_elu": NeuralEffect(inputs=("x", "du"), hidden="1x4", activation="elu", scales={"x": 0.5, "F": 0.2}),
     }
@@ -106,6 +108,32 @@ def test_compiled_network_follows_new_scales():
     model.load_state_dict(state)
     ref = simulate(model, x, t=t)
     assert torch.allclose(simulate(model, x, t=t, backend="fast"), ref, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("inputs", [("x", "v"), ("v", "u")])
+def test_duhem_latent_states_change_with_travel_not_time(inputs):
+    """latent_form="duhem": dz/dt = (v / s_x) N_z. A dwell (the input held) leaves the latent states where they
+    are whatever the network, and over a stroke z changes by N_z per s_x of travel (checked on the reference
+    loop against the network's own rate; s_x given, or read from v's scale over ω_s)."""
+    torch.manual_seed(4)
+    net = NeuralEffect(inputs, latent_states=2, hidden="1x6", scales={"x": 0.5, "v": 3.0, "F": 0.2},
+                       latent_form="duhem").double()
+    for p in net.net.parameters():
+        p.data.normal_(0.0, 0.5)
+    assert float(net.travel_scale()) == pytest.approx(0.5)
+    model = Constitutive({"spring": EFFECTS["linear_stiffness"](k=2.0), "neural": net}).double()
+    t = torch.linspace(0.0, 2.0, 401)
+    x = torch.where(t < 1.0, torch.sin(torch.pi * t / 2.0), torch.ones_like(t))[None]  # a stroke, then a dwell
+    for backend in ("reference", "fast"):
+        _, states = simulate(model, x, t=t, return_states=True, backend=backend, substeps=4)
+        dwell = states[0, t > 1.05]
+        assert (dwell - dwell[0]).abs().max() < 1e-12  # standing still: no motion, no change
+        assert (states[0, 200] - states[0, 0]).abs().max() > 1e-2  # moved: it changed
+    free = NeuralEffect(inputs, latent_states=2, hidden="1x6", scales={"x": 0.5, "v": 3.0, "F": 0.2}).double()
+    free.load_state_dict(net.state_dict())
+    _, states = simulate(Constitutive({"spring": EFFECTS["linear_stiffness"](k=2.0), "neural": free}).double(),
+                         x, t=t, return_states=True, substeps=4)
+    assert (states[0, -1] - states[0, 220]).abs().max() > 1e-3  # the free form drifts during the dwell
 
 
 def test_augmented_model_shares_the_nominal_parameters():
@@ -157,6 +185,10 @@ def test_bad_input_is_a_clear_error():
         NeuralEffect(inputs=("x", "acceleration"))
     with pytest.raises(ValueError, match="scale 'F' must be > 0"):
         NeuralEffect(scales={"F": 0.0})
+    with pytest.raises(ValueError, match="unknown latent_form"):
+        NeuralEffect(latent_states=1, latent_form="rate")
+    with pytest.raises(ValueError, match="travel in the scale of x"):
+        NeuralEffect(inputs=("u",), latent_states=1, latent_form="duhem")
     hybrid = _damper().augmented({"neural": _neural()})
     t, x, _ = _inputs()
     with pytest.raises(ValueError, match="reads condition"):

@@ -84,7 +84,8 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
               "lr_final_ratio": float(cfg.trainer.lr_final_ratio)}
     simulation = SimulationSettings.from_config(cfg.simulation)  # a LightningModule's hyperparameters: plain values
     sim = {"method": simulation.method, "substeps": simulation.substeps, "backend": simulation.backend}
-    encoder = {"encoder_past": encoder_past(cfg), "encoder_hidden": (cfg.get("encoder") or {}).get("hidden", "2x32")}
+    encoder = {"encoder_past": encoder_past(cfg), "encoder_hidden": (cfg.get("encoder") or {}).get("hidden", "2x32"),
+               "window_start": str(cfg.get("window_start") or "rest")}
     if kind in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all").double()
         check_model_data(nominal, dm.split, "model")
@@ -129,11 +130,13 @@ def build_module(cfg: DictConfig, dm: RecordDataModule, identify: Callable | Non
 
 
 def dynamics_inputs(cfg: DictConfig) -> dict:
-    """``{"dynamics_inputs": (...)}`` for a hybrid whose network sits inside the dynamics; ``{}`` otherwise (the
-    key is read by ``placement=dynamics`` only, so an experiment config can set it for every run it sweeps)."""
+    """``{"dynamics_inputs": (...), "latent_form": ...}`` for a hybrid whose network sits inside the dynamics;
+    ``{}`` otherwise (the keys are read by ``placement=dynamics`` only, so an experiment config can set them for
+    every run it sweeps)."""
     if cfg.module != "hybrid" or cfg.get("placement") != "dynamics":
         return {}
-    return {"dynamics_inputs": tuple(cfg.get("dynamics_inputs") or ("x", "v"))}
+    return {"dynamics_inputs": tuple(cfg.get("dynamics_inputs") or ("x", "v")),
+            "latent_form": str(cfg.get("latent_form") or "free")}
 
 
 def nominal_start(cfg: DictConfig) -> str | None:
@@ -304,7 +307,9 @@ def run_info(cfg: DictConfig) -> dict:
             "data": cfg.data.get("name", cfg.data.get("_target_", "")), "model": model,
             "placement": str(cfg.placement) if kind == "hybrid" else None,
             "dynamics_inputs": ",".join(dynamics_inputs(cfg).get("dynamics_inputs", ())) or None,
+            "latent_form": dynamics_inputs(cfg).get("latent_form"),
             "freeze_nominal": bool(cfg.freeze_nominal) if kind in ("hybrid", "std_pinn") else None,
             "encoder_past": encoder_past(cfg) if kind in ("physics", "hybrid") else None,
+            "window_start": str(cfg.get("window_start") or "rest") if kind in ("physics", "hybrid") else None,
             "nominal_init": nominal_start(cfg), "lbfgs_steps": (lbfgs_settings(cfg) or {}).get("steps", 0),
             "experiment": cfg.get("experiment_name")}

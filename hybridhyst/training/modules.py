@@ -53,10 +53,11 @@ class PhysicsModule(NominalMixin, SequenceModule):
 
     def __init__(self, nominal, normaliser: dict, init_noise: float | None = None, prior_weight: float = 0.0,
                  prior_kind: str = "l1", backend: str = "fast", method: str = "rk4", substeps: int = 1,
-                 encoder_past: int = 0, encoder_hidden="2x32", **kw):
+                 encoder_past: int = 0, encoder_hidden="2x32", window_start: str = "rest", **kw):
         super().__init__(normaliser, **kw)
         self._setup_nominal(nominal, backend, method, substeps, trainable=True)
         self._setup_encoder(encoder_past, encoder_hidden)
+        self._setup_window_start(window_start)
         if init_noise:
             self._reinitialise(float(init_noise))
         self.prior_weight, self.prior_kind = float(prior_weight), prior_kind
@@ -111,7 +112,8 @@ class HybridModule(NominalMixin, SequenceModule):
         (the coordinates the nominal's effects act on), "u", "du" (the raw input and its rate). A network that
         reads v adds damping of its own: in a model whose mass is only a regulariser (the quasi-static piezo
         model of seed 003) that can make the fixed-step integration unstable (there 3 of 3 seeds diverged with
-        ("x", "v"), none with ("x", "u")).
+        ("x", "v"), none with ("x", "u")). latent_form : how the latent states change, "free" (with time) or
+        "duhem" (with the travel, ż = (v / s_x) · N_z; ``NeuralEffect``).
     encoder_past, encoder_hidden : an MLP encoder of each training window's start state (the simulated model's:
         with ``placement="dynamics"`` the latent states included) from the ``encoder_past`` samples of (u, y)
         before it (``NominalMixin``); 0: none.
@@ -122,7 +124,8 @@ class HybridModule(NominalMixin, SequenceModule):
     def __init__(self, nominal, normaliser: dict, residual: str = "mlp", hidden="4x128", activation: str = "tanh",
                  freeze_nominal: bool = False, nominal_state: str | None = None, backend: str = "fast",
                  method: str = "rk4", substeps: int = 1, placement: str = "output", latent_states: int = 0,
-                 dynamics_inputs=("x", "v"), encoder_past: int = 0, encoder_hidden="2x32", **kw):
+                 dynamics_inputs=("x", "v"), latent_form: str = "free", encoder_past: int = 0,
+                 encoder_hidden="2x32", window_start: str = "rest", **kw):
         super().__init__(normaliser, **kw)
         if placement not in ("output", "dynamics"):
             raise ValueError(f"unknown placement {placement!r}; choose 'output' or 'dynamics'")
@@ -142,7 +145,8 @@ class HybridModule(NominalMixin, SequenceModule):
         if placement == "dynamics":
             conditions = {c: (self.norm.mean[c], self.norm.sd[c]) for c in self.network_conditions}
             self.net = NeuralEffect(dynamics_inputs, self.latent_states, hidden, activation,
-                                    scales=neural_scales(nominal, self.norm), conditions=conditions)
+                                    scales=neural_scales(nominal, self.norm), conditions=conditions,
+                                    latent_form=latent_form)
             self.__dict__["_augmented"] = nominal.augmented({NEURAL: self.net})  # not a submodule: its parameters
         else:  # are registered as the nominal's and the net's
             self.net = build_net(residual, self.n_features, 1, hidden, activation=activation, zero_last=True)
@@ -150,6 +154,7 @@ class HybridModule(NominalMixin, SequenceModule):
                 raise ValueError("the physics residual of an oscillator needs pointwise time derivatives of the "
                                  "residual branch; use residual=mlp, or lambda_phys=0 with an LSTM branch")
         self._setup_encoder(encoder_past, encoder_hidden)
+        self._setup_window_start(window_start)
 
     @property
     def model(self):

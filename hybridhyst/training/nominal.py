@@ -67,6 +67,38 @@ class NominalMixin:
             cond.update({c: batch["controls"][..., j].to(self.dtype) for j, c in enumerate(self.control_names)})
         return cond
 
+    def _setup_window_start(self, window_start: str = "rest"):
+        """``window_start``: where a training window's states start other than the measured (y, ẏ) -- "rest"
+        (or the encoder's estimate) or "run": where a simulation of the whole training record with the current
+        weights has them at the window's first sample (``refresh_run_states``, every epoch)."""
+        if window_start not in ("rest", "run"):
+            raise ValueError(f"unknown window_start {window_start!r}; choose 'rest' or 'run'")
+        if window_start == "run" and getattr(self, "encoder", None) is not None:
+            raise ValueError("window_start=run sets each window's states from a run of the whole record; an encoder "
+                             "(encoder.past > 0) estimates them instead: choose one")
+        self.window_start = window_start
+        self._run_states: list | None = None
+
+    def refresh_run_states(self, dm=None) -> None:
+        """The states along every whole training record of ``dm`` (the trainer's data module), simulated from
+        rest with the current weights (``window_start="run"``); a training window then starts from them."""
+        dm = self.trainer.datamodule if dm is None else dm
+        whole = dm.whole("train")
+        states = []
+        with torch.no_grad():
+            for k in range(len(whole)):
+                batch = {key: v[None] for key, v in whole[k].items()}
+                t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
+                U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
+                _, S = simulate(self.model, U, t=t, conditions=self.conditions(batch), return_states=True,
+                                settings=self.sim)
+                states.append(S[0])
+        self._run_states = states
+
+    def on_train_epoch_start(self):
+        if getattr(self, "window_start", "rest") == "run":
+            self.refresh_run_states()
+
     def _initial_state(self, batch, model=None):
         """The state each row starts from: oscillators whose output is the position start a mid-record window at
         the measured (y, ẏ); with an encoder, its estimate is added wherever a window starts inside a record."""
@@ -77,6 +109,15 @@ class NominalMixin:
             y0 = batch["y0"].to(self.dtype)
             base = torch.where(inside[:, None], y0, torch.zeros_like(y0))
         model = self.model if model is None else model
+        run = getattr(self, "_run_states", None)
+        if run is not None and model is self.model and self.training and bool(inside.any()):
+            B = batch["t"].shape[0]
+            s0 = model.initial_state(model.evaluate(self.conditions(batch), B), B, base=base)
+            run = torch.stack([run[int(i)][int(s)] for i, s in zip(batch["index"], batch["start"])])
+            k = base.shape[1] if base is not None else 0  # the measured coordinates stay measured
+            s0 = s0.clone()
+            s0[:, k:] = torch.where(inside[:, None], run[:, k:].to(s0), s0[:, k:])
+            return s0
         if getattr(self, "encoder", None) is None or model is not self.model or not bool(inside.any()):
             return base  # the encoder estimates the simulated model's states (not the bare nominal's of a hybrid)
         B = batch["t"].shape[0]

@@ -20,10 +20,12 @@ from .base import Effect, Kinematics, signals
 __all__ = ["NeuralEffect"]
 
 _INPUTS = ("x", "v", "u", "du")
+_FORMS = ("free", "duhem")
 
 
 class NeuralEffect(Effect):
-    """A force ``F = s_F · N(x, v, z, c)`` with latent states ``ż = ω_s · N_z(x, v, z, c)``.
+    """A force ``F = s_F · N(x, v, z, c)`` with latent states ``ż = ω_s · N_z(x, v, z, c)`` (``latent_form="free"``)
+    or ``ż = (v / s_x) · N_z(x, v, z, c)`` (``"duhem"``).
 
     Inputs are normalised by the data's scales: x/s_x, v/s_v (and u/s_u, du/s_du when listed), each latent
     state z (dimensionless, starts at 0) and each condition c as (c − mean)/sd. One MLP gives the force and
@@ -35,6 +37,11 @@ class NeuralEffect(Effect):
     inputs : kinematic inputs among "x", "v" (what the effect acts on: the excitation of a ``Constitutive``
         model, the relative or absolute coordinate of a ``DrivenOscillator``), "u", "du" (the raw input).
     latent_states : number of latent states z (0: a memoryless force).
+    latent_form : "free" — the latent states change with time at the network's rate; "duhem" — with the
+        travel: the network gives dz/dx per scale s_x of travel, multiplied by the velocity, as in Duhem's
+        form of a hysteresis operator (Bouc–Wen, Dahl, LuGre without viscosity are of it). The states then stand
+        still when the motion does, and a sign change of the velocity, which the network can only smooth, is
+        multiplied by a velocity near zero.
     hidden, activation : MLP widths ("2x32" or a list) and activation.
     scales : {"x", "v", "u", "du", "F": scale} in the model's units: s_F [F] sets the force unit, ω_s =
         s_v / s_x [1/t] the latent states' rate unit. Missing ones are 1.
@@ -56,14 +63,20 @@ class NeuralEffect(Effect):
     name = "neural"
     discovery_candidate = False  # names no physical effect (the loop measures what is left with its own network)
     state_dim = 0
-    equation = "F = s_F N(x/s_x, v/s_v, z, c);  dz/dt = (s_v/s_x) N_z(x/s_x, v/s_v, z, c)"
+    equation = ("F = s_F N(x/s_x, v/s_v, z, c);  dz/dt = (s_v/s_x) N_z(x/s_x, v/s_v, z, c) (free) or "
+                "(v/s_x) N_z(x/s_x, v/s_v, z, c) (duhem)")
     source = "Rackauckas et al. 2020 (universal differential equations); Beintema et al. 2023"
     specs: ClassVar[dict[str, ParameterSpec]] = {}
 
     def __init__(self, inputs: Sequence[str] = ("x", "v"), latent_states: int = 0, hidden="2x32",
                  activation: str = "tanh", scales: Mapping[str, float] | None = None,
-                 conditions: Mapping[str, Sequence[float]] | None = None):
+                 conditions: Mapping[str, Sequence[float]] | None = None, latent_form: str = "free"):
         super().__init__()
+        if latent_form not in _FORMS:
+            raise ValueError(f"neural effect: unknown latent_form {latent_form!r}; choose from {_FORMS}")
+        if latent_form == "duhem" and not {"x", "v"} & set(inputs):
+            raise ValueError("neural effect: latent_form='duhem' measures travel in the scale of x; give 'x' or 'v' "
+                             "among the inputs")
         bad = [i for i in inputs if i not in _INPUTS]
         if bad or not inputs:
             raise ValueError(f"neural effect: unknown input(s) {bad}; choose from {_INPUTS}")
@@ -78,7 +91,9 @@ class NeuralEffect(Effect):
                 raise ValueError(f"neural effect: scale {key!r} must be > 0, got {value}")
         self._options = {"inputs": list(inputs), "latent_states": int(latent_states), "hidden": parse_hidden(hidden),
                          "activation": activation, "scales": {k: float(v) for k, v in scales.items()},
-                         "conditions": {c: [float(m), float(sd)] for c, (m, sd) in (conditions or {}).items()}}
+                         "conditions": {c: [float(m), float(sd)] for c, (m, sd) in (conditions or {}).items()},
+                         "latent_form": latent_form}
+        self.latent_form = latent_form
         self.inputs = tuple(inputs)
         self.state_dim = int(latent_states)  # per instance: the model lays out its states from it
         self.condition_names = tuple(conditions or {})
@@ -143,11 +158,19 @@ class NeuralEffect(Effect):
             cols.append(p[f"@{c}"])
         return cols
 
-    def terms(self, outputs) -> tuple:
-        """(force, [latent rates]) from the network's output columns (tensors or symbols)."""
+    def travel_scale(self):
+        """s_x from the buffers (a loaded state dict sets them): x's input scale, or v's over ω_s."""
+        if "x" in self.inputs:
+            return self.input_scale[self.inputs.index("x")]
+        return self.input_scale[self.inputs.index("v")] / self.rate_scale
+
+    def terms(self, outputs, kin: Kinematics) -> tuple:
+        """(force, [latent rates]) from the network's output columns (tensors or symbols) at ``kin``."""
         if isinstance(outputs, torch.Tensor):
-            return self.force_scale * outputs[:, 0], self.rate_scale * outputs[:, 1:]
-        return float(self.force_scale) * outputs[0], [float(self.rate_scale) * o for o in outputs[1:]]
+            rate = self.rate_scale if self.latent_form == "free" else (kin.v / self.travel_scale())[:, None]
+            return self.force_scale * outputs[:, 0], rate * outputs[:, 1:]
+        rate = float(self.rate_scale) if self.latent_form == "free" else kin.v / float(self.travel_scale())
+        return float(self.force_scale) * outputs[0], [rate * o for o in outputs[1:]]
 
     def _outputs(self, p, kin: Kinematics, state):
         """Network outputs ``(batch, 1 + latent)`` at one instant (cached for the rate-then-force pair)."""
@@ -164,10 +187,11 @@ class NeuralEffect(Effect):
         return torch.zeros(batch, self.state_dim, dtype=ref.dtype, device=ref.device)
 
     def rate(self, p, kin: Kinematics, state):
-        return self.terms(self._outputs(p, kin, state))[1]
+        return self.terms(self._outputs(p, kin, state), kin)[1]
 
     def force(self, p, kin: Kinematics, state):
-        return self.terms(self._outputs(p, kin, state))[0]
+        return self.terms(self._outputs(p, kin, state), kin)[0]
 
     def extra_repr(self) -> str:
-        return f"inputs={self.inputs}, latent_states={self.state_dim}, conditions={self.condition_names}"
+        return (f"inputs={self.inputs}, latent_states={self.state_dim}, latent_form={self.latent_form}, "
+                f"conditions={self.condition_names}")

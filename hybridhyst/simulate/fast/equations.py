@@ -81,7 +81,7 @@ class _Networks:
             net = Network(key, effect.features(p, kin, state), outputs, widths, effect.net.activation, offset)
             self.networks.append(net)
             self._by_key[key] = net
-        return effect.terms(net.outputs)
+        return effect.terms(net.outputs, kin)
 
 
 def build_equations(model, controls: tuple[str, ...] = ()) -> Equations:
