@@ -159,3 +159,11 @@ def test_windows_start_where_a_run_of_the_whole_record_has_its_states():
                      encoder_past=8, window_start="run")
     with pytest.raises(ValueError, match="unknown window_start"):
         PhysicsModule(_oscillator(), dm.normaliser.to_dict(), window_start="measured")
+
+
+def test_run_window_starts_with_free_latent_states_warn():
+    dm = RecordDataModule(_records(), window=64, warmup=8)
+    dm.setup("fit")
+    with pytest.warns(UserWarning, match="can drift"):
+        HybridModule(_oscillator(), dm.normaliser.to_dict(), hidden="1x8", placement="dynamics", latent_states=1,
+                     window_start="run")

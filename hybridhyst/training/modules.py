@@ -16,6 +16,8 @@ optimiser:
 
 from __future__ import annotations
 
+import warnings
+
 import torch
 from torch.nn.utils import parametrize
 
@@ -155,6 +157,11 @@ class HybridModule(NominalMixin, SequenceModule):
                                  "residual branch; use residual=mlp, or lambda_phys=0 with an LSTM branch")
         self._setup_encoder(encoder_past, encoder_hidden)
         self._setup_window_start(window_start)
+        if window_start == "run" and self.latent_states and latent_form == "free":
+            warnings.warn("window_start=run with latent_form=free: latent states that change with time can drift "
+                          "over a whole record, and windows then start where the network saturates (on the Bouc-Wen "
+                          "benchmark such a run learned nothing); latent_form=duhem keeps them still where the motion "
+                          "is", UserWarning, stacklevel=2)
 
     @property
     def model(self):
