@@ -26,6 +26,8 @@ class NominalMixin:
     batch, as subspace-encoder methods do (Beintema, Tóth, Schoukens, "Deep subspace encoders for nonlinear
     system identification", Automatica 156, 2023). Its last layer starts at zero: training starts from the
     plain start. Whole records (validation, test) start at rest as before: the encoder only serves training.
+    Instead of the encoder, ``window_start="run"`` (``_setup_window_start``) starts every state but the measured
+    ones where a simulation of the whole training record with the current weights has it at the window's start.
     """
 
     nominal: nn.Module
