@@ -160,7 +160,7 @@ class HybridModule(NominalMixin, SequenceModule):
         if window_start == "run" and self.latent_states and latent_form == "free":
             warnings.warn("window_start=run with latent_form=free: latent states that change with time can drift "
                           "over a whole record, and windows then start where the network saturates (on the Bouc-Wen "
-                          "benchmark such a run's latent state drifted to -3e4 and it learned nothing); "
+                          "benchmark such a run's latent state drifted far out of range and it learned nothing); "
                           "latent_form=duhem keeps them still where the motion is", UserWarning, stacklevel=2)
 
     @property
