@@ -86,16 +86,10 @@ class NominalMixin:
         rest with the current weights (``window_start="run"``); a training window then starts from them."""
         dm = self.trainer.datamodule if dm is None else dm
         whole = dm.whole("train")
-        states = []
-        with torch.no_grad():
-            for k in range(len(whole)):
-                batch = {key: v[None] for key, v in whole[k].items()}
-                t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
-                U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
-                _, S = simulate(self.model, U, t=t, conditions=self.conditions(batch), return_states=True,
-                                settings=self.sim)
-                states.append(S[0])
-        self._run_states = states
+        with torch.no_grad():  # a record's first window starts at rest, as the whole record does
+            self._run_states = [self.simulate_nominal({key: v[None] for key, v in whole[k].items()},
+                                                      return_states=True, model=self.model)[1][0]
+                                for k in range(len(whole))]
 
     def on_train_epoch_start(self):
         if getattr(self, "window_start", "rest") == "run":
