@@ -104,6 +104,19 @@ def test_a_travel_drift_adds_its_coefficient_times_the_travel_so_far(effect, car
     assert torch.allclose(F, v.abs() * r["t"] * carrier(x, v), atol=1e-9)
 
 
+@pytest.mark.parametrize("backend", ["reference", "fast"])
+def test_a_travel_drift_levels_off_at_its_saturation_travel(backend):
+    """ṡ = |v| (1 − s/s_sat) is s = s_sat (1 − exp(−travel / s_sat)): on ramps the travel is |v| t, so the drift
+    of the stiffness follows the exponential of the travel (RK4's error aside) and ends near dk · s_sat."""
+    r = ramps([1.0, -2.0], 2.0, 0.01)
+    model = Constitutive([TravelStiffness(dk=-0.3, s_sat=0.5)])
+    F = respond(model, r["inputs"], t=r["t"], backend=backend)
+    x, v = r["inputs"][..., 0], r["inputs"][..., 1]
+    worked = 0.5 * (1 - torch.exp(-v.abs() * r["t"] / 0.5))
+    assert torch.allclose(F, -0.3 * worked * x, atol=1e-8)
+    assert float(worked[1, -1]) == pytest.approx(0.5, rel=1e-3)  # 4 units of travel: levelled off
+
+
 def test_attenuation_value_constitutive():
     x = torch.tensor([[0.0, 1.0, -2.0, 3.0]])
     F = respond(Constitutive([Attenuation(xi=0.3)]), x, dt=0.1)

@@ -123,3 +123,28 @@ def test_a_pick_prefers_a_close_option_the_rule_would_accept():
     assert rule.pick(options) == 1
     assert rule.pick(options, accepted=lambda i: i == 0) == 0
     assert rule.pick(options, accepted=lambda i: False) == 1  # none would pass: the plain pick
+
+
+def test_a_step_judges_the_candidates_ranked_below_the_top_only_when_none_of_it_passes():
+    """A flexible element ranked first on the training records fails on validation; the effect the data hold,
+    ranked fourth, passes: the step takes it. The options below the top are judged only when needed, and where
+    none of them passes either the top's pick is the refused step."""
+    rule, now = _rule(), Judged(1.0, 10.0)
+    top = [Judged(1.10, 5.0), Judged(1.00, 6.0), Judged(1.05, 7.0)]  # none falls by the margin
+    below = [Judged(0.99, 8.0), Judged(0.90, 9.0), Judged(0.80, 9.5), Judged(0.85, 11.0)]  # 0.99: 1 %, 11: BIC rose
+    options = top + below
+    calls = []
+
+    def more():
+        calls.append(1)
+        return below
+
+    def accepted(i):
+        return rule.adds(options[i], now)
+
+    assert rule.choose(top, accepted, more) == (5, True) and calls == [1]  # the lowest error of those passing
+    assert rule.choose(top, accepted) == (1, False)  # nothing below: the top's pick, refused
+    assert rule.choose(top, lambda i: i < 3 and accepted(i), more) == (1, False)  # none below passes
+    passing_top = [Judged(0.9, 5.0)] + top[1:]
+    calls.clear()
+    assert rule.choose(passing_top, lambda i: rule.adds(passing_top[i], now), more) == (0, True) and calls == []

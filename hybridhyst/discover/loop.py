@@ -315,7 +315,8 @@ class Loop:
                for s in {f.substeps for _, f in ranking if f is not None}}
         evidence = {c.name: (1 - f.sse / ref[f.substeps] if f is not None and ref[f.substeps] > 0 else None)
                     for c, f in ranking}
-        finals = [(cand, f, self.judge(f)) for cand, f in ranking[: int(o.top)] if f is not None]
+        fitted = [(cand, f) for cand, f in ranking if f is not None]
+        finals = [(cand, f, self.judge(f)) for cand, f in fitted[: int(o.top)]]
         if not finals:
             return False
         def ic_ref(f: Fit) -> float:
@@ -326,9 +327,13 @@ class Loop:
             _, f, j = finals[i]
             return self.rule.adds(j, Judged(self.now.val, ic_ref(f)))
 
-        index = self.rule.pick([j for _, _, j in finals], adds)
+        def more() -> list[Judged]:  # the candidates ranked below the top, judged only when none of it passes
+            first = len(finals)
+            finals.extend((cand, f, self.judge(f)) for cand, f in fitted[first: first + int(o.further)])
+            return [j for _, _, j in finals[first:]]
+
+        index, accepted = self.rule.choose([j for _, _, j in finals], adds, more if o.further > 0 else None)
         cand, c_fit, judged = finals[index]
-        accepted = adds(index)
         reference = Judged(self.now.val, ic_ref(c_fit))  # what the candidate was judged against
         step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, reference, accepted, evidence={
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],

@@ -11,7 +11,9 @@ stand for several errors) and its information criterion on the training records 
   half the margin: between two models the data cannot tell apart, the one with fewer parameters;
 * ``pick(options)``: of several fitted alternatives, the one with the lowest out-of-sample error, and among
   those within the margin of it the lowest information criterion (validation cannot tell them apart, so the
-  more parsimonious wins).
+  more parsimonious wins);
+* ``choose(first, accepted, more)``: a greedy step's candidate: the pick of the best-ranked, or, when none of
+  them is accepted, the pick of those ranked below that are.
 
 **Within the noise.** A relative margin alone lets a model that already predicts at the noise level take on an
 element the data lack: a flexible friction term that lowers a validation error of 1.05 σ to 1.02 σ passes a
@@ -122,3 +124,19 @@ class Acceptance:
         if accepted is not None:
             close = [i for i in close if accepted(i)] or close
         return min(close, key=lambda i: options[i].ic)
+
+    def choose(self, first: list[Judged], accepted, more=None) -> tuple[int, bool]:
+        """A greedy step's choice: ``(index, accepted)``. ``first``: the best-ranked options (by the training
+        fit); ``accepted(i)``: whether the rule accepts option i (indices run on through those ``more`` adds).
+        The ``pick`` of ``first``; when the rule accepts none of them, ``more()`` judges the options ranked below
+        (returns their ``Judged``, in order) and the pick of those it accepts is the step: a flexible element that
+        fits the training records best may fail on validation where the effect the data hold, ranked below it,
+        does not. Where none passes, the first pick, refused."""
+        index = self.pick(first, accepted)
+        if accepted(index) or more is None:
+            return index, accepted(index)
+        rest = more()
+        passing = [len(first) + i for i in range(len(rest)) if accepted(len(first) + i)]
+        if not passing:
+            return index, False
+        return passing[self.pick([rest[i - len(first)] for i in passing])], True

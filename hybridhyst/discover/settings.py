@@ -50,7 +50,9 @@ class DiscoverSettings:
     criterion : "bic" or "aic", which must also fall; max_steps : greedy steps accepted at most (an effect, a
         parameter function of a condition or a start state each; the trends and the start state offered right
         after an effect is added do not count).
-    top : best-ranked candidates compared on validation error; lm_steps : LM iterations per round of
+    top : best-ranked candidates compared on validation error; further : when the rule accepts none of them, the
+        next ``further`` candidates of the ranking are judged too, and the one it prefers of those it accepts is
+        the step (0: the step is refused); lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
     noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats
         models whose mean squared errors differ by at most ``rule.NOISE_SHARE`` σ² as within the noise of each
@@ -94,6 +96,7 @@ class DiscoverSettings:
     criterion: str = "bic"
     max_steps: int = 4
     top: int = 3
+    further: int = 0
     lm_steps: int = 25
     box_factor: float = 10.0
     noise_sd: float | None = None

@@ -10,28 +10,31 @@ from .travel_drift import TravelEffect
 
 
 class TravelDamping(TravelEffect):
-    """A viscous coefficient that changes in proportion to the distance travelled so far.
+    """A viscous coefficient that changes with the distance travelled so far, in proportion until it levels off.
 
     State and force::
 
-        ṡ = |v|
+        ṡ = |v| (1 − s / s_sat)
         F = dc · s · v
 
-    s [x] is the cumulative travel since the record started (0 at its start), so the damping at travel s is the
+    s [x] is the worked travel since the record started (0 at its start; the cumulative travel while short of
+    s_sat, levelling off at s_sat: ``TravelEffect``), so the damping at travel s is the
     nominal's plus dc · s: dc < 0 for a damper whose fluid thins as the work heats it, dc > 0 for one that
     thickens.
 
-    Units: dc [F·t/x²] (real, neutral 0: no drift). Shapes: ``(batch,)``; state ``(batch, 1)``.
-    Source: hybridhyst (a damping linear in cumulative travel; the friction level's is ``travel_drift``).
+    Units: dc [F·t/x²] (real, neutral 0: no drift), s_sat [x] (> 0; default 1e9:
+    linear). Shapes: ``(batch,)``; state ``(batch, 1)``.
+    Source: hybridhyst (a damping drifting with cumulative travel; the friction level's is ``travel_drift``).
     """
 
     name = "travel_damping"
-    example_values = {"dc": -0.05}
-    equation = "ds/dt = |v|;  F = dc * s * v"
-    source = "hybridhyst: linear drift of the viscous damping with cumulative travel"
+    example_values = {"dc": -0.05, "s_sat": 3.0}
+    equation = "ds/dt = |v| (1 - s / s_sat);  F = dc * s * v"
+    source = "hybridhyst: drift of the viscous damping with cumulative travel, levelling off"
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "dc": ParameterSpec(0.0, "F*t/x^2", (-1e9, 1e9), "real", neutral=0.0,
                             doc="change of the viscous coefficient per unit travel"),
+        "s_sat": TravelEffect.saturation(),
     }
 
     def force(self, p, kin: Kinematics, state):
