@@ -105,11 +105,11 @@ def test_a_travel_drift_adds_its_coefficient_times_the_travel_so_far(effect, car
 
 
 @pytest.mark.parametrize("backend", ["reference", "fast"])
-def test_a_travel_drift_levels_off_at_its_saturation_travel(backend):
-    """ṡ = |v| (1 − s/s_sat) is s = s_sat (1 − exp(−travel / s_sat)): on ramps the travel is |v| t, so the drift
-    of the stiffness follows the exponential of the travel (RK4's error aside) and ends near dk · s_sat."""
+def test_a_travel_drift_levels_off_over_the_inverse_of_lambda(backend):
+    """ṡ = |v| (1 − λ s) is s = (1 − exp(−λ · travel)) / λ: on ramps the travel is |v| t, so the drift of the
+    stiffness follows the exponential of the travel (RK4's error aside) and ends near dk / λ."""
     r = ramps([1.0, -2.0], 2.0, 0.01)
-    model = Constitutive([TravelStiffness(dk=-0.3, s_sat=0.5)])
+    model = Constitutive([TravelStiffness(dk=-0.3, lam=2.0)])
     F = respond(model, r["inputs"], t=r["t"], backend=backend)
     x, v = r["inputs"][..., 0], r["inputs"][..., 1]
     worked = 0.5 * (1 - torch.exp(-v.abs() * r["t"] / 0.5))

@@ -14,27 +14,27 @@ class TravelDamping(TravelEffect):
 
     State and force::
 
-        ṡ = |v| (1 − s / s_sat)
+        ṡ = |v| (1 − λ s)
         F = dc · s · v
 
-    s [x] is the worked travel since the record started (0 at its start; the cumulative travel while short of
-    s_sat, levelling off at s_sat: ``TravelEffect``), so the damping at travel s is the
+    s [x] is the worked travel since the record started (0 at its start; the cumulative travel when λ = 0,
+    levelling off at 1/λ otherwise: ``TravelEffect``), so the damping at travel s is the
     nominal's plus dc · s: dc < 0 for a damper whose fluid thins as the work heats it, dc > 0 for one that
     thickens.
 
-    Units: dc [F·t/x²] (real, neutral 0: no drift), s_sat [x] (> 0; default 1e9:
-    linear). Shapes: ``(batch,)``; state ``(batch, 1)``.
+    Units: dc [F·t/x²] (real, neutral 0: no drift), λ = lam [1/x] (≥ 0,
+    neutral 0: linear in the travel). Shapes: ``(batch,)``; state ``(batch, 1)``.
     Source: hybridhyst (a damping drifting with cumulative travel; the friction level's is ``travel_drift``).
     """
 
     name = "travel_damping"
-    example_values = {"dc": -0.05, "s_sat": 3.0}
-    equation = "ds/dt = |v| (1 - s / s_sat);  F = dc * s * v"
+    example_values = {"dc": -0.05, "lam": 0.3}
+    equation = "ds/dt = |v| (1 - lam * s);  F = dc * s * v"
     source = "hybridhyst: drift of the viscous damping with cumulative travel, levelling off"
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "dc": ParameterSpec(0.0, "F*t/x^2", (-1e9, 1e9), "real", neutral=0.0,
                             doc="change of the viscous coefficient per unit travel"),
-        "s_sat": TravelEffect.saturation(),
+        "lam": TravelEffect.levelling(),
     }
 
     def force(self, p, kin: Kinematics, state):

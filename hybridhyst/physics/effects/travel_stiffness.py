@@ -14,27 +14,27 @@ class TravelStiffness(TravelEffect):
 
     State and force::
 
-        ṡ = |v| (1 − s / s_sat)
+        ṡ = |v| (1 − λ s)
         F = dk · s · x
 
-    s [x] is the worked travel since the record started (0 at its start; the cumulative travel while short of
-    s_sat, levelling off at s_sat: ``TravelEffect``), so the spring's stiffness at travel
+    s [x] is the worked travel since the record started (0 at its start; the cumulative travel when λ = 0,
+    levelling off at 1/λ otherwise: ``TravelEffect``), so the spring's stiffness at travel
     s is the nominal's plus dk · s: dk < 0 for a spring that softens as it is worked (Mullins-like softening of
     an elastomer, a particle bed that loosens), dk > 0 for one that stiffens (compaction).
 
-    Units: dk [F/x²] (real, neutral 0: no drift), s_sat [x] (> 0; default 1e9:
-    linear). Shapes: ``(batch,)``; state ``(batch, 1)``.
+    Units: dk [F/x²] (real, neutral 0: no drift), λ = lam [1/x] (≥ 0,
+    neutral 0: linear in the travel). Shapes: ``(batch,)``; state ``(batch, 1)``.
     Source: hybridhyst (a stiffness drifting with cumulative travel; the friction level's is ``travel_drift``).
     """
 
     name = "travel_stiffness"
-    example_values = {"dk": -0.3, "s_sat": 3.0}
-    equation = "ds/dt = |v| (1 - s / s_sat);  F = dk * s * x"
+    example_values = {"dk": -0.3, "lam": 0.3}
+    equation = "ds/dt = |v| (1 - lam * s);  F = dk * s * x"
     source = "hybridhyst: drift of the stiffness with cumulative travel, levelling off"
     specs: ClassVar[dict[str, ParameterSpec]] = {
         "dk": ParameterSpec(0.0, "F/x^2", (-1e9, 1e9), "real", neutral=0.0,
                             doc="change of the stiffness per unit travel"),
-        "s_sat": TravelEffect.saturation(),
+        "lam": TravelEffect.levelling(),
     }
 
     def force(self, p, kin: Kinematics, state):
