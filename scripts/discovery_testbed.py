@@ -80,9 +80,13 @@ def main(argv=None) -> list[dict]:
                     help="discover's cross-check for every case (default: confirm, the library default)")
     ap.add_argument("--no-start-states", action="store_true",
                     help="discover without the start-state candidates (start_states=False) for every case")
+    ap.add_argument("--further", type=int, default=0,
+                    help="discover's further for every case: candidates judged below the top when none of it passes "
+                         "(default: 0, the library default)")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
-    if args.write_readme and (args.validation != "records" or args.no_start_states or args.cross_check != "confirm"):
+    if args.write_readme and (args.validation != "records" or args.no_start_states or args.cross_check != "confirm"
+                               or args.further):
         ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
     if args.bed != "first":
         from hybridhyst.testbed.blind_cases import bed_cases
@@ -96,7 +100,8 @@ def main(argv=None) -> list[dict]:
     start = time.perf_counter()
     options = {**({"validation": args.validation} if args.validation != "records" else {}),
                **({"start_states": False} if args.no_start_states else {}),
-               **({"cross_check": args.cross_check} if args.cross_check != "confirm" else {})} or None
+               **({"cross_check": args.cross_check} if args.cross_check != "confirm" else {}),
+               **({"further": args.further} if args.further else {})} or None
     rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options, cost=_earlier_cost(args.json))
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])
