@@ -78,7 +78,9 @@ NEUTRAL = tuple(cls for cls in NEW_EFFECTS if any(spec.neutral is not None for s
 @pytest.mark.parametrize("cls", NEUTRAL, ids=lambda c: c.name)
 def test_neutral_effect_changes_nothing_and_still_learns(cls):
     """At its neutral values an added effect leaves the response unchanged, and its neutral parameters still
-    get a gradient (so discovery can grow the effect from there)."""
+    get a gradient (so discovery can grow the effect from there): an amplitude at once; a parameter that only
+    shapes another's amplitude (a drift's levelling rate λ: its force is the drift times a worked travel that λ
+    bends) has none while that amplitude is 0, so it must get one as soon as the others leave neutral."""
     neutral = {n: s.neutral for n, s in cls.specs.items() if s.neutral is not None}
     effect = cls(**neutral)
     t, u = random_excitation()
@@ -86,6 +88,12 @@ def test_neutral_effect_changes_nothing_and_still_learns(cls):
         reference = structures(Viscous(c=0.0))[name]  # the same structure without the effect
         y = simulate(model, u, t=t, substeps=2)
         assert torch.allclose(y, simulate(reference, u, t=t, substeps=2), atol=1e-12), name
-        grads = torch.autograd.grad(y.square().sum(), [raw(effect, n) for n in neutral])
-        for pname, grad in zip(neutral, grads, strict=True):
+        grads = dict(zip(neutral, torch.autograd.grad(y.square().sum(), [raw(effect, n) for n in neutral]),
+                         strict=True))
+        assert all(torch.isfinite(g) for g in grads.values()) and any(g != 0 for g in grads.values()), \
+            f"{cls.name}: gradients {grads} at neutral ({name})"
+        for pname in [p for p, g in grads.items() if g == 0]:
+            grown = cls(**{**cls.example_values, pname: neutral[pname]})
+            y = simulate(structures(grown)[name], u, t=t, substeps=2)
+            (grad,) = torch.autograd.grad(y.square().sum(), [raw(grown, pname)])
             assert torch.isfinite(grad) and grad != 0, f"{cls.name}.{pname}: gradient {grad} at neutral ({name})"
