@@ -133,8 +133,9 @@ class Acceptance:
         fits the training records best may fail on validation where the effect the data hold, ranked below it,
         does not. Where none passes, the first pick, refused."""
         index = self.pick(first, accepted)
-        if accepted(index) or more is None:
-            return index, accepted(index)
+        passes = accepted(index)
+        if passes or more is None:
+            return index, passes
         rest = more()
         passing = [len(first) + i for i in range(len(rest)) if accepted(len(first) + i)]
         if not passing:
