@@ -122,6 +122,10 @@ RUNS = {  # row name -> (run folder, the options after the data options)
     "hybrid (output MLP), 200 epochs": ("hybrid_output_200", ["baseline=hybrid_mlp", "trainer.max_epochs=200"]),
     "hybrid (network in the dynamics), 200 epochs": ("hybrid_dynamics_200",
                                                      ["baseline=hybrid_dynamics", "trainer.max_epochs=200"]),
+    # the default 60 Adam epochs, then Levenberg-Marquardt on the whole training records (trainer.lm; one setting,
+    # the first tried: 20 steps)
+    "hybrid (network in the dynamics), then 20 Levenberg–Marquardt steps": ("hybrid_dynamics_lm", [
+        "baseline=hybrid_dynamics", "trainer.lm.steps=20"]),
     # the networks inside the law's parameters: c(I) and κ(I) small MLPs of the current (the law's structure kept)
     "law with c(I), κ(I) as networks of the current": ("law_neural", ["baseline=physics", *NEURAL]),
     "law with c(I), κ(I) as networks of the current, 200 epochs": ("law_neural_200", [

@@ -316,3 +316,25 @@ def test_the_compiled_loops_refuse_arrays_of_another_shape_or_type(float64):
         args = {**ok, key: bad}
         with pytest.raises(ValueError, match=f"{key} must be|th has"):
             module.forward(args["U"], args["h"], args["th"], args["s0"], c, A, bw, 1, args["states"], args["y"])
+
+
+def test_jacobian_from_a_given_start(float64):
+    """``simulate_jacobian(initial_state=...)``: a given [x, v] leaves the effects' start states (and their
+    derivatives w.r.t. the parameters) the model's own; a whole state is held fixed. Both against the adjoint."""
+    model = DrivenOscillator({"dahl": EFFECTS["dahl"](sigma0=10.0, Fc=0.5),
+                              "spring": EFFECTS["linear_stiffness"](k=4.0)}, mass=0.3).double()
+    t = torch.linspace(0.0, 2.0, 301)
+    u = torch.stack([torch.sin(3.0 * t), 0.5 * torch.sin(5.0 * t)])
+    with torch.no_grad():
+        P = model.evaluate(None, 2)
+    for start in (torch.tensor([[0.1, -0.2], [0.0, 0.3]]), torch.tensor([[0.1, -0.2, 0.05], [0.0, 0.3, -0.1]])):
+        values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}
+        y, dy, keys = simulate_jacobian(model, u, t, values=values, initial_state=start)
+        ref = simulate(model, u, t=t, values=values, initial_state=start)
+        assert ((y - ref.detach()).abs().max() / ref.abs().max()).item() < RTOL
+        w = torch.randn(ref.shape, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
+        grads = torch.autograd.grad((ref * w).sum(), [values[k][n] for k, n in keys], allow_unused=True)
+        got = (w[..., None] * dy).sum(dim=(1, 2))
+        for j, g in enumerate(grads):
+            expected = torch.zeros(2, dtype=torch.float64) if g is None else g
+            assert torch.allclose(got[:, j], expected, rtol=10 * RTOL, atol=10 * RTOL * float(got.abs().max())), keys[j]

@@ -95,6 +95,38 @@ def test_compiled_path_equals_the_reference_with_networks(structure):
         assert ((gf - gr).abs().max() / gr.abs().max()).item() < 1e-8
 
 
+@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
+def test_forward_sensitivities_with_networks_equal_the_adjoint(structure):
+    """``simulate_jacobian(..., weights=True)``: the derivatives of every output sample w.r.t. every parameter
+    value and every network weight in one forward pass, against autograd through the reference loop: per row,
+    w · dy equals the gradient of w · y (weights: summed over the rows, which share them); every network,
+    activation, Duhem's form, a play and sub-steps in the loop; a given initial state is held fixed."""
+    from hybridhyst.simulate import simulate_jacobian
+    from hybridhyst.simulate.fast.function import weight_columns
+
+    model = _five_networks(structure)
+    t, x, cond = _inputs()
+    with torch.no_grad():
+        P = model.evaluate(cond, 3)
+    values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}
+    s0 = 0.1 * torch.randn(3, model.state_dim, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
+    y, dy, keys = simulate_jacobian(model, x, t, values=values, conditions=cond, substeps=2, initial_state=s0,
+                                    weights=True)
+    ref = simulate(model, x, t=t, values=values, conditions=cond, substeps=2, initial_state=s0)
+    assert ((y - ref.detach()).abs().max() / ref.abs().max()).item() < 1e-10
+    columns = [w for _, ws in weight_columns(model) for w in ws]
+    assert dy.shape[-1] == len(keys) + sum(w.numel() for w in columns)
+    w = torch.randn(ref.shape, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
+    grads = torch.autograd.grad((ref * w).sum(), [values[k][n] for k, n in keys] + columns, allow_unused=True)
+    got = (w[..., None] * dy).sum(dim=(1, 2))  # (rows, columns)
+    expected = [torch.zeros(3, dtype=torch.float64) if g is None else g for g in grads[: len(keys)]]
+    expected = torch.cat([torch.stack(expected, dim=1), torch.cat([g.reshape(-1) for g in grads[len(keys):]])
+                          .expand(3, -1)], dim=1)
+    got[:, len(keys):] = got[:, len(keys):].sum(0)  # the weights are shared by the rows
+    assert float((expected[0, len(keys):] != 0).double().mean()) > 0.9  # (a relu unit may be off throughout)
+    assert ((got - expected).abs().max() / expected.abs().max()).item() < 1e-8
+
+
 def test_compiled_network_follows_new_scales():
     """The scales are constants of the generated code: a state dict that changes them recompiles."""
     model = _damper().augmented({"neural": _neural(conditions=False)})

@@ -45,7 +45,7 @@ from ..data.datamodule import RecordDataModule
 from ..files import load_weights, not_weights
 from ..runs import RunInterrupted, claim, inside, is_complete, is_run_dir
 from ..training import predict_split, predictions_frame, split_metrics
-from ..training.build import build_datamodule, build_trainer, lbfgs_settings, nominal_start, run_info
+from ..training.build import build_datamodule, build_trainer, nominal_start, run_info, second_stage
 from ..training.build import build_module as _build_module
 from .common import (
     CONF_DIR,
@@ -272,10 +272,15 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
             raise ValueError(f"trainer: {' '.join(str(e).split())} (ckpt_path={cfg.get('ckpt_path')}, "
                              f"trainer.max_epochs={cfg.trainer.max_epochs})") from None
         epochs = int(trainer.current_epoch)
-        lbfgs = lbfgs_settings(cfg)
-        if lbfgs is not None:  # full-batch L-BFGS from where Adam ended, in a trainer of its own
-            module.use_lbfgs(lbfgs["max_iter"], lbfgs["history_size"], chunk=dm.batch_size, epoch_offset=epochs)
-            dm.batch_size = len(dm.train_dataloader().dataset)
+        after = second_stage(cfg)
+        if after is not None:  # L-BFGS or Levenberg-Marquardt from where Adam ended, in a trainer of its own
+            kind, settings = after
+            if kind == "lbfgs":  # full batch
+                module.use_lbfgs(settings["max_iter"], settings["history_size"], chunk=dm.batch_size,
+                                 epoch_offset=epochs)
+                dm.batch_size = len(dm.train_dataloader().dataset)
+            else:  # whole training records, one step per epoch
+                module.use_lm(settings["damping"], epoch_offset=epochs)
             trainer = build_trainer(cfg, run_dir, after=trainer)
             trainer.fit(module, dm)
         train_time = time.perf_counter() - t0
@@ -305,7 +310,8 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
     if starting.trained_before:  # a resumed run: the whole training, and this run's part of it
         meta["train_time_this_run_s"] = train_time
     meta.update(n_parameters=module.n_parameters(), train_time_s=starting.trained_before + train_time, epochs=epochs,
-                lbfgs_steps_done=int(trainer.current_epoch) if lbfgs is not None else 0,
+                lbfgs_steps_done=int(trainer.current_epoch) if after and after[0] == "lbfgs" else 0,
+                lm_steps_done=int(trainer.current_epoch) if after and after[0] == "lm" else 0,
                 train_windows=len(dm.train_dataloader().dataset),
                 units={"x": dm.units.get("x", ""), "F": dm.units.get("y", ""), "t": dm.units.get("t", "s")},
                 evaluated="best" if best and cfg.evaluate_best else "last")

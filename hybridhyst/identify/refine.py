@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import torch
 
+from ..optim import marquardt_system
 from ..progress import progress as progress_bar
 from .space import Box
 
@@ -202,8 +203,7 @@ def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tenso
     JtJ = J.transpose(1, 2) @ J
     g = (J.transpose(1, 2) @ r[..., None])[..., 0]
     eye = torch.eye(D, dtype=J.dtype).expand(K, D, D)
-    A = JtJ + lam[:, None, None] * (torch.diag_embed(JtJ.diagonal(dim1=1, dim2=2)) + 1e-12 * eye)
-    A = torch.where(bad[:, None, None], eye, A)
+    A = torch.where(bad[:, None, None], eye, marquardt_system(JtJ, lam))
     step, info = torch.linalg.solve_ex(A, -g[..., None])
     step = step[..., 0]
     return torch.where(((info != 0) | bad)[:, None] | ~torch.isfinite(step), torch.zeros_like(step), step)

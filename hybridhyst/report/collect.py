@@ -32,7 +32,8 @@ INFO_FIELDS = ("module", "name", "residual", "placement", "encoder_past", "lbfgs
                "seed", "train_fraction", "n_parameters", "train_time_s", "epochs", "train_windows", "data", "model",
                "experiment")
 # Outcomes of a run rather than settings: runs that differ only in these belong to one configuration.
-MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs", "lbfgs_steps_done", "train_windows")
+MEASURED_FIELDS = ("seed", "n_parameters", "train_time_s", "epochs", "lbfgs_steps_done", "lm_steps_done",
+                   "train_windows")
 UNIT_FIELDS = ("unit_x", "unit_F", "unit_t")
 _BASE = ("path", "status", "error", "predictions", "kept_start")
 _METRIC_COLUMNS = tuple(f"{split}_{m}" for split in SPLITS for m in METRICS) + ("test_per_condition", "logged")

@@ -192,13 +192,18 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
 
 def jacobian_covers(model) -> bool:
-    """Whether ``simulate_jacobian`` covers ``model``: no effect reads the input with a delay and none is a
-    network."""
-    from ..physics.effects.base import Effect
+    """Whether identification's exact Jacobians (``simulate_jacobian`` w.r.t. the parameter values alone) cover
+    ``model``: no effect reads the input with a delay (``simulate_jacobian`` refuses it) and none is a network
+    (whose weights and condition inputs are no coordinates of identification: it takes differences there)."""
     from ..physics.effects.neural import NeuralEffect
 
-    return not any(isinstance(e, NeuralEffect) or type(e).input_delay is not Effect.input_delay
-                   for e in model.effects.values())
+    return not _delayed(model) and not any(isinstance(e, NeuralEffect) for e in model.effects.values())
+
+
+def _delayed(model) -> bool:
+    from ..physics.effects.base import Effect
+
+    return any(type(e).input_delay is not Effect.input_delay for e in model.effects.values())
 
 
 _DUAL = threading.Lock()
@@ -214,17 +219,24 @@ def dual_level():
 
 def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None = None, conditions=None,
                       settings: SimulationSettings | None = None, method: str | None = None,
-                      substeps: int | None = None):
+                      substeps: int | None = None, initial_state=None, weights: bool = False):
     """Responses and their derivatives w.r.t. every parameter value in one compiled pass (forward
     sensitivities).
 
     The Jacobian of ``simulate(model, inputs, t, values=values, backend="fast")`` w.r.t. each row's parameter
     values: what a Gauss–Newton or Levenberg–Marquardt fit needs, at the cost of a few simulations where
     finite differences take one per parameter. Exact for the discrete map (the same numbers as the adjoint).
-    Models with an input delay or networks are not covered (``jacobian_covers``; a ValueError says so).
+    Models with an input delay are not covered (``jacobian_covers``; a ValueError says so).
 
-    Returns ``(y (batch, time, output_dim), dy (batch, time, output_dim, n), keys)``: ``keys`` lists the n
-    parameters as ``(effect, name)`` (the structure's under ``"structure"``) in the order of ``dy``'s last axis.
+    ``weights``: with networks inside the model (``NeuralEffect``), ``dy`` goes on past the parameter values with
+    the derivatives w.r.t. every network weight, in the order of ``fast.function.weight_columns`` (what a
+    Levenberg–Marquardt stage of training needs). ``initial_state``: as ``simulate``'s; a whole state
+    ``(batch, state_dim)`` is held fixed (its derivatives are zero), otherwise the effects' start states and
+    their derivatives w.r.t. the parameters are the model's own.
+
+    Returns ``(y (batch, time, output_dim), dy (batch, time, output_dim, n), keys)``: ``keys`` lists the
+    parameters as ``(effect, name)`` (the structure's under ``"structure"``) in the order of ``dy``'s last axis
+    (the weights' columns follow them).
     """
     from .fast.function import compiled, tangent_fast
 
@@ -235,20 +247,23 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     B = u.shape[0]
     cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
     P = _check_values(model, values, B, cond)
-    if not jacobian_covers(model):
-        raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it) or "
-                         "networks")
+    if _delayed(model):
+        raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it)")
     U, controls = with_controls(with_rates(u, t), cond)
-    keys = list(compiled(model, controls)[0].param_keys)
+    eq = compiled(model, controls)[0]
+    keys = list(eq.param_keys)
     first = _first(cond, controls)
-    s0 = model.initial_state(P, B, controls=first)
-    n = len(keys)
+    s0 = _initial_state(model, P, B, initial_state, dtype, u.device, first)
+    given = initial_state is not None and s0.shape[1] == torch.as_tensor(initial_state).shape[-1]  # a whole state
+    base = None if initial_state is None or given else \
+        torch.as_tensor(initial_state, dtype=dtype, device=u.device).expand(B, -1)
+    n = len(keys) + sum(net.n_weights for net in eq.networks)
     ds0 = s0.new_zeros(B, s0.shape[1], n)
     # the initial state's derivatives: forward-mode AD, each parameter in its own B rows; only an effect with a
     # state reads its parameters there (``Model.initial_state``), so only theirs get rows
     stateful = [j for j, (k, _) in enumerate(keys) if k in model.effects and model.effects[k].state_dim]
     m = len(stateful)
-    if m and s0.shape[1]:
+    if m and s0.shape[1] and not given:
         with dual_level():
             rows = {k: {name: v.expand(B).repeat(m) for name, v in P[k].items()}
                     for k in {keys[j][0] for j in stateful}}
@@ -258,11 +273,12 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
                 e[i] = 1.0
                 rows[k][name] = fwAD.make_dual(rows[k][name], e.reshape(-1))
             first_m = {c: v.repeat(m) for c, v in (first or {}).items()}
-            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, m * B, controls=first_m)).tangent
+            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, m * B, controls=first_m,
+                                                           base=None if base is None else base.repeat(m, 1))).tangent
         if tangent is not None:
             ds0[..., stateful] = tangent.reshape(m, B, -1).permute(1, 2, 0)
     y, dy = tangent_fast(model, U, t, P, s0, ds0, method=method or "rk4", substeps=substeps, controls=controls)
-    return y, dy, keys
+    return y, (dy if weights else dy[..., : len(keys)]), keys
 
 
 def _all_finite(x: torch.Tensor) -> bool:

@@ -88,6 +88,7 @@ class SequenceModule(L.LightningModule):
         self._val = {"sse": 0.0, "sae": 0.0, "n": 0}
         self._epoch_start = time.perf_counter()
         self.lbfgs: dict | None = None  # set by use_lbfgs: the stage after Adam
+        self.lm = None  # set by use_lm: the Levenberg-Marquardt stage after Adam (training.marquardt)
         self.epoch_offset = 0  # epochs before this stage (the history counts on from the Adam epochs)
 
     # -- features ----------------------------------------------------------------------------------
@@ -135,6 +136,8 @@ class SequenceModule(L.LightningModule):
     def training_step(self, batch, batch_idx):
         if self.lbfgs is not None:
             return self._lbfgs_step(batch)
+        if self.lm is not None:
+            return self._lm_step()
         loss = self._objective(batch, log=True)
         if loss is None:  # a diverged simulation or residual: skip this step, count it
             self.log("train/skipped_steps", 1.0, batch_size=batch["y"].shape[0], on_step=False, on_epoch=True,
@@ -213,6 +216,32 @@ class SequenceModule(L.LightningModule):
                  reduce_fx="sum")
         return loss
 
+    # -- Levenberg-Marquardt stage -----------------------------------------------------------------
+    def use_lm(self, damping: float = 1e-3, epoch_offset: int = 0) -> None:
+        """Switch to Levenberg–Marquardt (``trainer.lm``, ``training.marquardt``): each training step is one
+        damped Gauss–Newton iteration on the simulation error of every whole training record, over the nominal's
+        trainable parameters and the weights of a network inside the dynamics (the training batch itself is not
+        read). For the stage after Adam. ``epoch_offset``: the epochs before, for the parameter history."""
+        from .marquardt import MarquardtStage
+
+        if getattr(self, "nominal", None) is None:
+            raise ValueError(f"trainer.lm trains a simulated model (module=physics or hybrid), not module={self.kind}")
+        self.lm = MarquardtStage(self, damping)
+        self._lm_records = None  # the whole training records, batched one by one (on the first step)
+        self.automatic_optimization = False
+        self.epoch_offset = int(epoch_offset)
+
+    def _lm_step(self):
+        if self._lm_records is None:
+            whole = self.trainer.datamodule.whole("train")
+            self._lm_records = [{k: v[None] for k, v in whole[i].items()} for i in range(len(whole))]
+        out = self.optimizers().step(closure=lambda: self.lm.step(self, self._lm_records))
+        B = len(self._lm_records)
+        self.log("train/loss", out["cost"], batch_size=B, on_step=False, on_epoch=True, prog_bar=True)
+        self.log("train/lm_damping", out["damping"], batch_size=B, on_step=False, on_epoch=True)
+        self.log("train/lm_tries", float(out["tries"]), batch_size=B, on_step=False, on_epoch=True)
+        return None
+
     def on_validation_epoch_start(self):
         self._val = {"sse": 0.0, "sae": 0.0, "n": 0}
 
@@ -258,6 +287,10 @@ class SequenceModule(L.LightningModule):
             groups += [{"params": [p], "lr": self.nominal_lr * max(float(p.detach().abs().max()), 1.0),
                         "weight_decay": 0.0} for p in nominal.parameters() if p.requires_grad]
         groups = [g for g in groups if g["params"]]
+        if self.lm is not None:  # the stage steps the parameters itself, through an optimiser Lightning counts
+            from .marquardt import StageStep
+
+            return StageStep([*self.lm.raw, *self.lm.weights])
         if self.lbfgs is not None:  # one group: L-BFGS scales its steps itself
             return torch.optim.LBFGS([p for g in groups for p in g["params"]], lr=1.0, max_iter=self.lbfgs["max_iter"],
                                      history_size=self.lbfgs["history_size"], line_search_fn="strong_wolfe")

@@ -181,6 +181,45 @@ def lbfgs_settings(cfg: DictConfig) -> dict | None:
     return out
 
 
+def lm_settings(cfg: DictConfig) -> dict | None:
+    """``trainer.lm`` checked: ``{"steps", "damping", "check_val_every_n_epoch"}``, or None when the run has no
+    Levenberg–Marquardt stage (``steps: 0`` or no block)."""
+    block = to_plain(cfg.trainer.get("lm")) or {}
+    known = ("steps", "damping", "check_val_every_n_epoch")
+    unknown = sorted(set(block) - set(known))
+    if unknown:
+        raise ValueError(f"unknown trainer.lm key(s) {unknown}; the keys are {sorted(known)}")
+    if not block.get("steps"):
+        return None
+    missing = [k for k in known if block.get(k) is None]  # the values are conf/trainer/default.yaml's
+    if missing:
+        raise ValueError(f"trainer.lm.{missing[0]} is missing: the Levenberg-Marquardt stage needs {list(known)} "
+                         "(see conf/trainer/default.yaml)")
+    out = {"steps": int(block["steps"]), "damping": float(block["damping"]),
+           "check_val_every_n_epoch": int(block["check_val_every_n_epoch"])}
+    if out["steps"] < 0 or out["check_val_every_n_epoch"] < 1 or not out["damping"] > 0:
+        raise ValueError(f"trainer.lm needs steps >= 0, damping > 0 and check_val_every_n_epoch >= 1, got {out}")
+    if lbfgs_settings(cfg) is not None:
+        raise ValueError("trainer.lbfgs.steps and trainer.lm.steps are both set: the stage after Adam is one of "
+                         "them; set the other's steps to 0")
+    t = cfg.trainer
+    devices = t.get("devices", 1)
+    if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
+            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
+        raise ValueError("trainer.lm runs in one process (each step needs every record's Jacobian): set "
+                         "trainer.lm.steps=0 for a multi-device run")
+    return out
+
+
+def second_stage(cfg: DictConfig) -> tuple[str, dict] | None:
+    """The stage after the Adam epochs: ``("lbfgs", trainer.lbfgs)``, ``("lm", trainer.lm)`` or None."""
+    lm = lm_settings(cfg)
+    if lm is not None:
+        return "lm", lm
+    lbfgs = lbfgs_settings(cfg)
+    return ("lbfgs", lbfgs) if lbfgs is not None else None
+
+
 def max_epochs(cfg: DictConfig) -> int:
     """``trainer.max_epochs`` checked: a whole number >= 0, or Lightning's -1 (no limit) where a stopping rule in
     ``trainer.extra`` ends the run (``max_steps``, ``max_time``). Alone, -1 would train without end, and Lightning
@@ -217,10 +256,11 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
     """Trainer with checkpoints (best validation RMSE + last), the logger of ``cfg.logger``, loop figures and
     ``callbacks``; ``cfg.trainer`` gives the accelerator, devices, strategy and the loop's settings.
 
-    ``after``: the trainer of the Adam epochs; the new one runs the L-BFGS stage (``trainer.lbfgs``: its steps
-    as epochs, no gradient clipping, its logger version ``lbfgs``). It keeps ``after``'s best-checkpoint callback,
-    so ``best.ckpt`` stays the best of both stages, and writes no ``last.ckpt``: that stays the end of the Adam
-    epochs, and a run resumed from it repeats the (deterministic, full-batch) L-BFGS stage.
+    ``after``: the trainer of the Adam epochs; the new one runs the stage after them (``second_stage``: the
+    L-BFGS or Levenberg–Marquardt steps as epochs, no gradient clipping, its logger version ``lbfgs`` or ``lm``;
+    the Levenberg–Marquardt stage reads no training batch, so it loads one per step). It keeps ``after``'s
+    best-checkpoint callback, so ``best.ckpt`` stays the best of both stages, and writes no ``last.ckpt``: that
+    stays the end of the Adam epochs, and a run resumed from it repeats the (deterministic) stage.
 
     ``monitor``: the metric the best checkpoint is chosen by, the one the module logs (``val/rmse``, or
     ``train/rmse`` where the data module has no validation records); by default from ``split.val``."""
@@ -228,9 +268,10 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
 
     _quiet_lightning()
     t = cfg.trainer
-    lbfgs = lbfgs_settings(cfg) if after is not None else None
-    if after is not None and lbfgs is None:
-        raise ValueError("build_trainer(after=...) is for the L-BFGS stage; trainer.lbfgs.steps is 0")
+    stage_after = second_stage(cfg) if after is not None else None
+    if after is not None and stage_after is None:
+        raise ValueError("build_trainer(after=...) is for the stage after Adam; trainer.lbfgs.steps and "
+                         "trainer.lm.steps are 0")
     # resuming keeps writing into the checkpoint's own folder, so the best score so far carries over
     ckpt_dir = Path(cfg.ckpt_path).resolve().parent if cfg.get("ckpt_path") else Path(run_dir) / "checkpoints"
     # best.ckpt: the best validation RMSE; last.ckpt: every epoch. Lightning >= 2.6 writes save_last's copy only
@@ -247,7 +288,7 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
         checkpoints = [after.checkpoint_callbacks[0]]
     callbacks = [*checkpoints, *callbacks]
     logger = False
-    version = "" if after is None else "lbfgs"
+    version = "" if stage_after is None else stage_after[0]
     if cfg.logger.kind == "tensorboard":
         from lightning.pytorch.loggers import TensorBoardLogger
 
@@ -263,13 +304,16 @@ def build_trainer(cfg: DictConfig, run_dir: Path, callbacks: list | tuple = (), 
         callbacks.extend(_progress_bar())
     extra = to_plain(t.get("extra")) or {}
     stage = {"max_epochs": max_epochs(cfg), "gradient_clip_val": t.gradient_clip_val,
-             "check_val_every_n_epoch": int(t.check_val_every_n_epoch)}
-    if lbfgs is not None:
-        stage = {"max_epochs": lbfgs["steps"], "gradient_clip_val": None,
-                 "check_val_every_n_epoch": lbfgs["check_val_every_n_epoch"]}
+             "check_val_every_n_epoch": int(t.check_val_every_n_epoch), "limit_train_batches": t.limit_train_batches}
+    if stage_after is not None:
+        kind, settings = stage_after
+        stage = {"max_epochs": settings["steps"], "gradient_clip_val": None,
+                 "check_val_every_n_epoch": settings["check_val_every_n_epoch"]}
+        if kind == "lm":
+            stage["limit_train_batches"] = 1
     return L.Trainer(accelerator=t.accelerator, devices=t.devices, strategy=t.strategy, num_nodes=int(t.num_nodes),
                      precision=t.precision, log_every_n_steps=int(t.log_every_n_steps),
-                     deterministic=bool(t.deterministic), limit_train_batches=t.limit_train_batches,
+                     deterministic=bool(t.deterministic),
                      limit_val_batches=t.limit_val_batches, enable_progress_bar=bool(t.enable_progress_bar),
                      enable_model_summary=False, default_root_dir=str(run_dir), logger=logger, callbacks=callbacks,
                      **stage, **extra)
@@ -312,4 +356,5 @@ def run_info(cfg: DictConfig) -> dict:
             "encoder_past": encoder_past(cfg) if kind in ("physics", "hybrid") else None,
             "window_start": str(cfg.get("window_start") or "rest") if kind in ("physics", "hybrid") else None,
             "nominal_init": nominal_start(cfg), "lbfgs_steps": (lbfgs_settings(cfg) or {}).get("steps", 0),
+            "lm_steps": (lm_settings(cfg) or {}).get("steps", 0),
             "experiment": cfg.get("experiment_name")}

@@ -92,7 +92,8 @@ class NominalMixin:
                                 for k in range(len(whole))]
 
     def on_train_epoch_start(self):
-        if getattr(self, "window_start", "rest") == "run":
+        if getattr(self, "window_start", "rest") == "run" and getattr(self, "lm", None) is None:  # (the
+            # Levenberg-Marquardt stage simulates whole records: no window starts)
             self.refresh_run_states()
 
     def _initial_state(self, batch, model=None):

@@ -5,7 +5,8 @@ and ``output`` on sympy symbols (``equations``), differentiated symbolically and
 with the system C compiler and loaded (``build``) into a forward loop and its exact discrete adjoint, wrapped as
 a ``torch.autograd.Function`` (``function``). Values and gradients equal the reference loop's (tests assert
 1e-8 relative in float64). ``tangent_fast`` runs the same map's forward sensitivities
-w.r.t. every parameter in one pass (``simulate.simulate_jacobian``: Jacobians for least squares).
+w.r.t. every parameter and network weight in one pass (``simulate.simulate_jacobian``: Jacobians for least squares,
+in identification and in training's Levenberg–Marquardt stage).
 """
 
 from .function import prebuild_models as prebuild_models

@@ -148,8 +148,8 @@ def _pointer(a: np.ndarray) -> int:
 def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_out: int, NI: int) -> None:
     """The loops index raw memory: every array float64, C-contiguous and of the shape they assume."""
     shapes = {"U": (B, T, NI), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
-              "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, NI), "gs0": (B, S), "ds0": (B, S, P),
-              "dy": (B, T, n_out, P)}
+              "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, NI), "gs0": (B, S), "ds0": (B, S, NT),
+              "dy": (B, T, n_out, NT)}
     for key, a in arrays.items():
         if a.dtype != np.float64 or not a.flags.c_contiguous or a.shape != shapes.get(key, a.shape):
             raise ValueError(f"compiled {name}: {key} must be a C-contiguous float64 array of shape "
@@ -218,6 +218,7 @@ class Compiled:
                   c.shape[0], [c, A, bw], sub, {"gth": gth, "gU": gU, "gs0": gs0}, th.shape[1])
 
     def tangent(self, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
-        """Outputs y (B,T,O) and their derivatives dy (B,T,O,P) w.r.t. every parameter, given ds0 (B,S,P)."""
+        """Outputs y (B,T,O) and their derivatives dy (B,T,O,NT) w.r.t. every column of th (the parameters, then
+        the networks' weights), given ds0 (B,S,NT)."""
         self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0}, c.shape[0],
                   [c, A, bw], sub, {"y": y, "dy": dy}, th.shape[1])

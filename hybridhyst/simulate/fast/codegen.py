@@ -5,8 +5,10 @@ the generated C file holds the kernels ``rhs(s, in, th, f, buf)`` and ``rhs_jac(
 (values and Jacobians w.r.t. state, parameters and inputs), the same pair for the outputs, the state bounds,
 and then the loops of ``loops.c``: ``forward``, ``backward`` (the exact adjoint of the discrete explicit
 Runge–Kutta map on the sample grid with sub-steps — the same numbers as autograd through the reference loop)
-and ``tangent`` (the same map's forward sensitivities w.r.t. every parameter in one pass: whole Jacobians for
-Levenberg–Marquardt). ``runtime.c`` comes first: the non-smooth functions and the MLP kernels.
+and ``tangent`` (the same map's forward sensitivities w.r.t. every parameter and network weight in one pass: whole
+Jacobians for Levenberg–Marquardt; the networks' share of each Jacobian row is one back-propagation through their
+layers, ``rhs_net_vjp`` with a unit weight). ``runtime.c`` comes first: the non-smooth functions and the MLP
+kernels.
 
 A network inside the equations is a small MLP kernel (``_mlp_forward``) over its weights, which follow the
 P parameters in ``th``; the Jacobian kernels hold every network's output fixed, and ``rhs_net_vjp`` /

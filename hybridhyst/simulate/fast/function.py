@@ -148,22 +148,27 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
 def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
                  method: str = "rk4", substeps: int = 1, controls: tuple[str, ...] = ()):
     """Outputs ``(batch, time, output_dim)`` and their derivatives ``(batch, time, output_dim, n)`` w.r.t. the
-    n parameter values of the equations, in the order of ``compiled(model)[0].param_keys`` (forward
-    sensitivities of the compiled loop: one pass for all n, where finite differences take n simulations).
-    ``dstate0 (batch, state_dim, n)``: the initial state's derivatives. Not differentiable itself; models
-    with networks are not covered (their layers are held in the Jacobian kernels)."""
+    n columns of the compiled loop's ``th``: the parameter values of the equations in the order of
+    ``compiled(model)[0].param_keys``, then every network's weights (``weight_columns``) -- forward sensitivities
+    of the compiled loop, one pass for all n where finite differences take n simulations. ``dstate0 (batch,
+    state_dim, n)``: the initial state's derivatives. Not differentiable itself."""
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
     eq, module = compiled(model, controls)
-    if eq.networks:
-        raise ValueError("tangents of the fast path do not cover models with networks; use the adjoint (backward)")
     B, T = U.shape[0], U.shape[1]
     c, A, bw = _tableau(method)
-
+    th = _numpy(_theta(eq, P, model, B, U))
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1)
     y = np.empty((B, T, model.output_dim))
-    dy = np.empty((B, T, model.output_dim, len(eq.param_keys)))
-    module.tangent(_numpy(U), _numpy(h), _numpy(_theta(eq, P, model, B, U)), _numpy(state0), _numpy(dstate0),
-                   c, A, bw, int(substeps), y, dy)
+    dy = np.empty((B, T, model.output_dim, th.shape[1]))
+    module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), c, A, bw, int(substeps), y, dy)
     return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
             torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
+
+
+def weight_columns(model, controls: tuple[str, ...] = ()) -> list[tuple[str, list[torch.Tensor]]]:
+    """Where each network's weights sit among ``tangent_fast``'s columns: per network ``(effect key, [weight,
+    bias, weight, bias, ...])``, the tensors in the order their flattened values follow the parameter values."""
+    eq, _ = compiled(model, controls)
+    return [(net.key, [t for lin in model.effects[net.key].net.layers() for t in (lin.weight, lin.bias)])
+            for net in eq.networks]

@@ -78,31 +78,65 @@ static void forward_row(int T, const double *U, const double *h, const double *t
     }
 }
 
-/* Outputs y and their derivatives dy (T, O, P) w.r.t. every parameter (forward sensitivities: the exact
-   derivative of the same discrete map as forward_row), given the initial state's ds0 (S, P). Without networks
-   (their outputs are held in the Jacobian kernels). */
-static void tangent_row(int T, const double *U, const double *h, const double *th, const double *s0,
+/* The right-hand side f and its whole Jacobians w.r.t. the state, fs (S, S), and w.r.t. all nt columns of th, ft
+   (S, nt): rhs_jac's (every network's output held) plus, with networks, their share row by row (one
+   back-propagation through the layers per state, rhs_net_vjp with a unit weight). */
+static inline void rhs_jac_full(const double *Y, const double *in, const double *th, int nt, double *f, double *fs,
+                                double *ft, double *buf) {
+    double FT[DIM(S * P)], FI[DIM(S * NI)], w[DIM(S)], gin[NI];
+    rhs_jac(Y, in, th, f, fs, FT, FI, buf);
+    for (int i = 0; i < S; i++)
+        for (int p = 0; p < nt; p++) ft[i * nt + p] = p < P ? FT[i * P + p] : 0.0;
+    if (NETS)
+        for (int i = 0; i < S; i++) {
+            for (int r = 0; r < S; r++) w[r] = r == i ? 1.0 : 0.0;
+            for (int q = 0; q < NI; q++) gin[q] = 0.0;
+            rhs_net_vjp(Y, in, th, w, fs + i * S, ft + i * nt, gin, buf);
+        }
+}
+
+/* The same for the outputs: g, gs (O, S), gt (O, nt). */
+static inline void out_jac_full(const double *st, const double *in, const double *th, int nt, double *g, double *gs,
+                                double *gt, double *buf) {
+    double GT[DIM(O * P)], GI[DIM(O * NI)], w[DIM(O)], gin[NI];
+    out_jac(st, in, th, g, gs, GT, GI, buf);
+    for (int o = 0; o < O; o++)
+        for (int p = 0; p < nt; p++) gt[o * nt + p] = p < P ? GT[o * P + p] : 0.0;
+    if (NETS)
+        for (int o = 0; o < O; o++) {
+            for (int r = 0; r < O; r++) w[r] = r == o ? 1.0 : 0.0;
+            for (int q = 0; q < NI; q++) gin[q] = 0.0;
+            out_net_vjp(st, in, th, w, gs + o * S, gt + o * nt, gin, buf);
+        }
+}
+
+/* Outputs y and their derivatives dy (T, O, nt) w.r.t. every column of th -- the P parameters, then the networks'
+   weights (nt = P without networks) -- as forward sensitivities: the exact derivative of the same discrete map as
+   forward_row, given the initial state's ds0 (S, nt). */
+static void tangent_row(int T, int nt, const double *U, const double *h, const double *th, const double *s0,
                         const double *ds0, int nst, const double *c, const double *A, const double *bw, int sub,
                         double *y, double *dy) {
-    const int s1 = DIM(S), p1 = DIM(P);
-    double K[nst * s1], dK[nst * s1 * p1], Y[s1], dY[s1 * p1];
-    double FS[s1 * s1], FT[s1 * p1], FI[s1 * NI];
-    double g[DIM(O)], gs[DIM(O) * s1], gt[DIM(O) * p1], gi[DIM(O) * NI], buf[NB];
-    double st[s1], sig[s1 * p1]; /* the state and d(state)/d(parameters) (S, P) */
-    double lo[s1], hi[s1], fl[s1], dlo[s1 * p1], dhi[s1 * p1], in[NI];
+    const int s1 = DIM(S), n1 = DIM(nt);
+    double K[nst * s1], Y[s1], FS[s1 * s1], g[DIM(O)], gs[DIM(O) * s1], buf[NB];
+    double st[s1], lo[s1], hi[s1], fl[s1], dlo[DIM(S * P)], dhi[DIM(S * P)], in[NI];
+    double *dK = malloc(sizeof(double) * nst * s1 * n1), *dY = malloc(sizeof(double) * s1 * n1);
+    double *sig = malloc(sizeof(double) * s1 * n1); /* d(state)/d(th) (S, nt) */
+    double *FT = malloc(sizeof(double) * s1 * n1), *gt = malloc(sizeof(double) * DIM(O) * n1);
     memset(K, 0, sizeof K);
-    memset(dK, 0, sizeof dK);
+    memset(dK, 0, sizeof(double) * nst * s1 * n1);
     for (int i = 0; i < S; i++) st[i] = s0[i];
-    for (int i = 0; i < S * P; i++) sig[i] = ds0[i];
+    for (int i = 0; i < S * nt; i++) sig[i] = ds0[i];
     if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = 0; k < T; k++) {
-        out_jac(st, U + k * NI, th, g, gs, gt, gi, buf);
+        out_jac_full(st, U + k * NI, th, nt, g, gs, gt, buf);
         for (int o = 0; o < O; o++) {
             y[k * O + o] = g[o];
-            for (int p = 0; p < P; p++) {
-                double acc = gt[o * P + p];
-                for (int i = 0; i < S; i++) acc += gs[o * S + i] * sig[i * P + p];
-                dy[(k * O + o) * P + p] = acc;
+            double *row = dy + (k * O + o) * nt;
+            for (int p = 0; p < nt; p++) row[p] = gt[o * nt + p];
+            for (int i = 0; i < S; i++) {
+                double gi = gs[o * S + i];
+                if (gi != 0.0)
+                    for (int p = 0; p < nt; p++) row[p] += gi * sig[i * nt + p];
             }
         }
         if (k == T - 1) break;
@@ -110,39 +144,54 @@ static void tangent_row(int T, const double *U, const double *h, const double *t
         for (int m = 0; m < sub; m++) {
             for (int j = 0; j < nst; j++) { /* stage j: Y_j = s + hk sum_l A_jl K_l, K_j = f(Y_j); so the tangents */
                 stage_state(st, K, j, hk, A, nst, Y);
-                for (int i = 0; i < S; i++)
-                    for (int p = 0; p < P; p++) {
-                        double acc = sig[i * P + p];
-                        for (int l = 0; l < j; l++) acc += hk * A[j * nst + l] * dK[(l * s1 + i) * p1 + p];
-                        dY[i * P + p] = acc;
+                for (int i = 0; i < S; i++) {
+                    double *dyi = dY + i * nt;
+                    for (int p = 0; p < nt; p++) dyi[p] = sig[i * nt + p];
+                    for (int l = 0; l < j; l++) {
+                        double a = hk * A[j * nst + l];
+                        if (a != 0.0) {
+                            const double *dkl = dK + (l * s1 + i) * n1;
+                            for (int p = 0; p < nt; p++) dyi[p] += a * dkl[p];
+                        }
                     }
+                }
                 stage_input(U, k, (m + c[j]) / sub, in);
-                rhs_jac(Y, in, th, K + j * s1, FS, FT, FI, buf);
-                for (int i = 0; i < S; i++)
-                    for (int p = 0; p < P; p++) {
-                        double acc = FT[i * P + p];
-                        for (int r = 0; r < S; r++) acc += FS[i * S + r] * dY[r * P + p];
-                        dK[(j * s1 + i) * p1 + p] = acc;
+                rhs_jac_full(Y, in, th, nt, K + j * s1, FS, FT, buf);
+                for (int i = 0; i < S; i++) {
+                    double *dki = dK + (j * s1 + i) * n1;
+                    for (int p = 0; p < nt; p++) dki[p] = FT[i * nt + p];
+                    for (int r = 0; r < S; r++) {
+                        double fsr = FS[i * S + r];
+                        if (fsr != 0.0)
+                            for (int p = 0; p < nt; p++) dki[p] += fsr * dY[r * nt + p];
                     }
+                }
             }
             for (int i = 0; i < S; i++) {
                 double acc = 0.0;
                 for (int j = 0; j < nst; j++) acc += bw[j] * K[j * s1 + i];
                 st[i] += hk * acc;
-                for (int p = 0; p < P; p++) {
-                    double a2 = 0.0;
-                    for (int j = 0; j < nst; j++) a2 += bw[j] * dK[(j * s1 + i) * p1 + p];
-                    sig[i * P + p] += hk * a2;
+                for (int p = 0; p < nt; p++) dY[p] = 0.0; /* (dY's row 0 as scratch: sum_j bw_j dK_j) */
+                for (int j = 0; j < nst; j++) {
+                    const double *dkj = dK + (j * s1 + i) * n1;
+                    for (int p = 0; p < nt; p++) dY[p] += bw[j] * dkj[p];
                 }
+                for (int p = 0; p < nt; p++) sig[i * nt + p] += hk * dY[p];
             }
-            if (HAS_BOUNDS) { /* a state held at a bound follows the bound */
+            if (HAS_BOUNDS) { /* a state held at a bound follows the bound (which no weight moves) */
                 project(st, lo, hi, fl);
                 for (int i = 0; i < S; i++)
                     if (fl[i] != 0.0)
-                        for (int p = 0; p < P; p++) sig[i * P + p] = fl[i] > 0 ? dhi[i * P + p] : dlo[i * P + p];
+                        for (int p = 0; p < nt; p++)
+                            sig[i * nt + p] = p < P ? (fl[i] > 0 ? dhi[i * P + p] : dlo[i * P + p]) : 0.0;
             }
         }
     }
+    free(dK);
+    free(dY);
+    free(sig);
+    free(FT);
+    free(gt);
 }
 
 /* Exact adjoint of forward_row: accumulates dL/dth (NT), dL/dU (T, NI), dL/ds0 (S) from dL/dy (T, O) and
@@ -274,6 +323,6 @@ void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double
                 const double *s0, const double *ds0, long nst, const double *c, const double *A, const double *bw,
                 long sub, double *y, double *dy) {
     for (long b = b0; b < b1; b++)
-        tangent_row(T, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * P, nst, c, A, bw, sub,
-                    y + b * T * O, dy + b * T * O * P);
+        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * NT, nst, c, A, bw,
+                    sub, y + b * T * O, dy + b * T * O * NT);
 }
