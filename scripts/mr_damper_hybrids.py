@@ -130,6 +130,8 @@ RUNS = {  # row name -> (run folder, the options after the data options)
     "law with c(I), κ(I) as networks of the current": ("law_neural", ["baseline=physics", *NEURAL]),
     "law with c(I), κ(I) as networks of the current, 200 epochs": ("law_neural_200", [
         "baseline=physics", *NEURAL, "trainer.max_epochs=200"]),
+    "law with c(I), κ(I) as networks of the current, then 20 Levenberg–Marquardt steps": ("law_neural_lm", [
+        "baseline=physics", *NEURAL, "trainer.lm.steps=20"]),
 }
 
 
