@@ -348,6 +348,19 @@ def test_a_value_outside_the_parameters_domain_is_refused_naming_effect_and_para
     assert expected in str(err.value), err.value
 
 
+def test_a_negative_levelling_rate_is_refused_with_what_zero_means():
+    """The generic hint for an amplitude, "0 turns the term off", is wrong for a drift's levelling rate λ: 0 keeps
+    the drift linear, which its own description says."""
+    from hybridhyst.physics import build_model
+
+    with pytest.raises(ValueError) as err:
+        build_model(effects={"drift": {"effect": "travel_drift", "dF": 0.1, "lam": -0.5}})
+    assert "parameter lam" in str(err.value) and "(0: linear in the travel)" in str(err.value)
+    assert "turns the term off" not in str(err.value)
+    with pytest.raises(ValueError, match=r"\(0 turns the term off\)"):
+        build_model(effects={"spring": {"effect": "linear_stiffness", "k": -1.0}})
+
+
 def test_signed_values_the_physics_allows_are_accepted():
     """A softening cubic stiffness, Bouc–Wen shape parameters, an asymmetry and a trend with a negative slope whose
     value stays positive over the data: the check is on a parameter's value, not on every coefficient."""

@@ -348,7 +348,10 @@ class Effect(nn.Module):
                 continue  # checked where it is built: strictly inside when trained, anywhere when fixed
             if not bool(spec.admits(torch.tensor(float(number)))):
                 domain = _DOMAIN_WORDS.get(spec.constraint, "a number")
-                off = " (0 turns the term off)" if spec.constraint == "nonnegative" and spec.neutral == 0.0 else ""
+                # 0 turns the term off where it is the neutral value, unless the doc says what 0 means (a drift's
+                # levelling rate: 0 keeps the drift linear)
+                off = " (0 turns the term off)" if (spec.constraint == "nonnegative" and spec.neutral == 0.0
+                                                     and "(0:" not in spec.doc) else ""
                 raise ValueError(f"effect {self.name!r}: parameter {pname} ({spec.doc}) needs {domain}, got "
                                  f"{number:g}: give {pname} {domain} in the model config{off}")
 
