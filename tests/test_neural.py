@@ -112,7 +112,7 @@ def test_forward_sensitivities_with_networks_equal_the_adjoint(structure):
     s0 = 0.1 * torch.randn(3, model.state_dim, generator=torch.Generator().manual_seed(1), dtype=torch.float64)
     y, dy, keys = simulate_jacobian(model, x, t, values=values, conditions=cond, substeps=2, initial_state=s0,
                                     weights=True)
-    ref = simulate(model, x, t=t, values=values, conditions=cond, substeps=2, initial_state=s0)
+    ref = simulate(model, x, t=t, values=values, conditions=cond, substeps=2, initial_state=s0, backend="reference")
     assert ((y - ref.detach()).abs().max() / ref.abs().max()).item() < 1e-10
     columns = [w for _, ws in weight_columns(model) for w in ws]
     assert dy.shape[-1] == len(keys) + sum(w.numel() for w in columns)

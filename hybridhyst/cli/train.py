@@ -47,6 +47,7 @@ from ..runs import RunInterrupted, claim, inside, is_complete, is_run_dir
 from ..training import predict_split, predictions_frame, split_metrics
 from ..training.build import build_datamodule, build_trainer, nominal_start, run_info, second_stage
 from ..training.build import build_module as _build_module
+from ..training.marquardt import check_module
 from .common import (
     CONF_DIR,
     atomic_write,
@@ -258,6 +259,8 @@ def _run(cfg, run_dir: Path, meta: dict, start: float) -> dict:
         L.seed_everything(int(cfg.seed), workers=True, verbose=False)
         dm = build_datamodule(cfg)
         module = build_module(cfg, dm)  # identifies the nominal (nominal_init) unless resuming
+        if (second_stage(cfg) or ("",))[0] == "lm":  # settings the stage cannot honour stop the run before Adam
+            check_module(module)
         starting = StartModel()
         trainer = build_trainer(cfg, run_dir, callbacks=[starting, InterruptCheckpoint(_checkpoint_dir(cfg, run_dir))],
                                 monitor=f"{_monitor(dm)}/rmse")  # the split the module's validation loop scores

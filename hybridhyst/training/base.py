@@ -224,8 +224,6 @@ class SequenceModule(L.LightningModule):
         read). For the stage after Adam. ``epoch_offset``: the epochs before, for the parameter history."""
         from .marquardt import MarquardtStage
 
-        if getattr(self, "nominal", None) is None:
-            raise ValueError(f"trainer.lm trains a simulated model (module=physics or hybrid), not module={self.kind}")
         self.lm = MarquardtStage(self, damping)
         self._lm_records = None  # the whole training records, batched one by one (on the first step)
         self.automatic_optimization = False

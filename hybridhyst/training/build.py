@@ -205,9 +205,13 @@ def lm_settings(cfg: DictConfig) -> dict | None:
     t = cfg.trainer
     devices = t.get("devices", 1)
     if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
-            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
+            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))
+            or (isinstance(devices, str) and devices.strip().isdigit() and int(devices) > 1)):
         raise ValueError("trainer.lm runs in one process (each step needs every record's Jacobian): set "
                          "trainer.lm.steps=0 for a multi-device run")
+    if str(t.get("accelerator", "cpu")) != "cpu":
+        raise ValueError(f"trainer.lm runs on the CPU (its Jacobians come from the compiled loop on the host), not "
+                         f"trainer.accelerator={t.get('accelerator')}: use trainer=default, or trainer.lm.steps=0")
     return out
 
 

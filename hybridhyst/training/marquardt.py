@@ -23,12 +23,32 @@ import numpy as np
 import torch
 
 from ..optim import marquardt_step
+from ..physics.parameters import project_to_bounds
 from ..simulate import simulate, simulate_jacobian
 from ..simulate.fast.function import weight_columns
 
-__all__ = ["MarquardtStage", "StageStep"]
+__all__ = ["MarquardtStage", "StageStep", "check_module"]
 
 TRIES = 10  # refused steps (each raising the damping 4×) before an iteration gives up
+
+
+def check_module(module) -> None:
+    """Refuse, with every reason at once, a module the stage cannot train (called before the Adam epochs too, so a
+    run with settings it cannot honour stops at once): a model that is simulated (``nominal``), a squared loss,
+    no physics or prior term, a network inside the dynamics rather than at the output."""
+    if getattr(module, "nominal", None) is None:
+        raise ValueError(f"trainer.lm trains a simulated model (module=physics or hybrid), not module={module.kind}")
+    reasons = []
+    if module.loss_kind != "mse":
+        reasons.append(f"loss.kind={module.loss_kind} (Levenberg-Marquardt minimises squares: use mse)")
+    if module.lambda_phys > 0:
+        reasons.append("loss.lambda_phys > 0 (the stage minimises the data misfit alone: set it to 0)")
+    if getattr(module, "prior_weight", 0.0):
+        reasons.append("loss.prior_weight > 0 (the stage minimises the data misfit alone: set it to 0)")
+    if getattr(module, "placement", "dynamics") != "dynamics":
+        reasons.append("placement=output (the branch is outside the simulation; use trainer.lbfgs)")
+    if reasons:
+        raise ValueError("trainer.lm cannot train this run: " + "; ".join(reasons))
 
 
 class MarquardtStage:
@@ -41,17 +61,7 @@ class MarquardtStage:
     def __init__(self, module, damping: float = 1e-3):
         if float(damping) <= 0:
             raise ValueError(f"trainer.lm.damping must be > 0, got {damping}")
-        reasons = []
-        if module.loss_kind != "mse":
-            reasons.append(f"loss.kind={module.loss_kind} (Levenberg-Marquardt minimises squares: use mse)")
-        if module.lambda_phys > 0:
-            reasons.append("loss.lambda_phys > 0 (the stage minimises the data misfit alone: set it to 0)")
-        if getattr(module, "prior_weight", 0.0):
-            reasons.append("loss.prior_weight > 0 (the stage minimises the data misfit alone: set it to 0)")
-        if getattr(module, "placement", "dynamics") != "dynamics":
-            reasons.append("placement=output (the branch is outside the simulation; use trainer.lbfgs)")
-        if reasons:
-            raise ValueError("trainer.lm cannot train this run: " + "; ".join(reasons))
+        check_module(module)
         self.damping = float(damping)
         self.raw = [p for p in module.nominal.parameters() if p.requires_grad]
         self.weights = [w for _, ws in weight_columns(module.model, tuple(module.control_names)) for w in ws]
@@ -129,12 +139,14 @@ class MarquardtStage:
         """One Levenberg–Marquardt iteration in place: ``{"cost", "start_cost", "tries", "damping", "accepted"}``."""
         JtJ, Jtr, cost = self.normal_equations(module, records)
         if not math.isfinite(cost) or not bool(torch.isfinite(JtJ).all()):
-            raise FloatingPointError("trainer.lm: the simulation or its Jacobian is not finite at the stage's start "
-                                     "(the Adam epochs ended on a diverging model)")
+            raise FloatingPointError("trainer.lm: the simulation or its Jacobian is not finite where the step starts "
+                                     "(a diverging model)")
         x = self.coordinates()
         for tries in range(1, TRIES + 1):
             step = marquardt_step(JtJ, Jtr, self.damping).to(x)
             self.assign(x + step)
+            project_to_bounds(module.nominal)  # an amplitude stored unconstrained stays in its domain: the cost
+            # judged is the one of the values the step leaves
             new = self.cost(module, records) if bool(torch.isfinite(step).all()) else math.inf
             if new < cost:
                 self.damping = max(self.damping / 3.0, 1e-12)
