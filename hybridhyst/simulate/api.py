@@ -254,9 +254,9 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     keys = list(eq.param_keys)
     first = _first(cond, controls)
     s0 = _initial_state(model, P, B, initial_state, dtype, u.device, first)
-    given = initial_state is not None and s0.shape[1] == torch.as_tensor(initial_state).shape[-1]  # a whole state
-    base = None if initial_state is None or given else \
-        torch.as_tensor(initial_state, dtype=dtype, device=u.device).expand(B, -1)
+    start = None if initial_state is None else torch.as_tensor(initial_state, dtype=dtype, device=u.device)
+    given = start is not None and _whole_state(model, start)  # held fixed; otherwise [x, v] under the effects'
+    base = None if start is None or given else start.expand(B, -1)
     n = len(keys) + sum(net.n_weights for net in eq.networks)
     ds0 = s0.new_zeros(B, s0.shape[1], n)
     # the initial state's derivatives: forward-mode AD, each parameter in its own B rows; only an effect with a
@@ -321,13 +321,18 @@ def _first(cond, controls) -> dict | None:
     return {c: cond[c][:, 0] for c in controls} if controls else None
 
 
+def _whole_state(model, start: torch.Tensor) -> bool:
+    """Whether a given start is the whole state (else the structure's [x, v], the effects' states their own)."""
+    return start.shape[-1] == model.state_dim and model.state_dim != model.base_state_dim
+
+
 def _initial_state(model, P, batch, initial_state, dtype, device, controls=None):
     if initial_state is None:
         return model.initial_state(P, batch, controls=controls)
     s0 = torch.as_tensor(initial_state, dtype=dtype, device=device)
     if s0.ndim == 1:
         s0 = s0.expand(batch, -1)
-    if s0.shape[1] == model.state_dim and model.state_dim != model.base_state_dim:
+    if _whole_state(model, s0):
         return s0
     if s0.shape[1] == model.base_state_dim:
         return model.initial_state(P, batch, base=s0, controls=controls)

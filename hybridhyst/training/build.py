@@ -154,47 +154,54 @@ def nominal_start(cfg: DictConfig) -> str | None:
     return "model" if start == "none" else start  # build_module refuses an unknown start
 
 
+def _stage_block(cfg: DictConfig, key: str, known: tuple[str, ...], what: str) -> dict | None:
+    """``trainer.<key>`` with its keys checked, or None when it has no steps; every key given (the values are
+    conf/trainer/default.yaml's)."""
+    block = to_plain(cfg.trainer.get(key)) or {}
+    unknown = sorted(set(block) - set(known))
+    if unknown:
+        raise ValueError(f"unknown trainer.{key} key(s) {unknown}; the keys are {sorted(known)}")
+    if not block.get("steps"):
+        return None
+    missing = [k for k in known if block.get(k) is None]
+    if missing:
+        raise ValueError(f"trainer.{key}.{missing[0]} is missing: the {what} stage needs {list(known)} "
+                         "(see conf/trainer/default.yaml)")
+    return block
+
+
+def _one_process(cfg: DictConfig, key: str, why: str) -> None:
+    """Refuse a multi-device run for a stage that needs the whole training set in one process."""
+    t = cfg.trainer
+    devices = t.get("devices", 1)
+    if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
+            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))
+            or (isinstance(devices, str) and devices.strip().isdigit() and int(devices) > 1)):
+        raise ValueError(f"trainer.{key} runs in one process ({why}): set trainer.{key}.steps=0 for a multi-device "
+                         "run")
+
+
 def lbfgs_settings(cfg: DictConfig) -> dict | None:
     """``trainer.lbfgs`` checked: ``{"steps", "max_iter", "history_size", "check_val_every_n_epoch"}``, or None
     when the run has no L-BFGS stage (``steps: 0`` or no block)."""
-    block = to_plain(cfg.trainer.get("lbfgs")) or {}
     known = ("steps", "max_iter", "history_size", "check_val_every_n_epoch")
-    unknown = sorted(set(block) - set(known))
-    if unknown:
-        raise ValueError(f"unknown trainer.lbfgs key(s) {unknown}; the keys are {sorted(known)}")
-    if not block.get("steps"):
+    block = _stage_block(cfg, "lbfgs", known, "L-BFGS")
+    if block is None:
         return None
-    missing = [k for k in known if block.get(k) is None]  # the values are conf/trainer/default.yaml's
-    if missing:
-        raise ValueError(f"trainer.lbfgs.{missing[0]} is missing: the L-BFGS stage needs {list(known)} "
-                         "(see conf/trainer/default.yaml)")
     out = {k: int(block[k]) for k in known}
     if out["steps"] < 0 or min(out["max_iter"], out["history_size"], out["check_val_every_n_epoch"]) < 1:
         raise ValueError(f"trainer.lbfgs needs steps >= 0 and max_iter, history_size, check_val_every_n_epoch >= 1, "
                          f"got {out}")
-    t = cfg.trainer
-    devices = t.get("devices", 1)
-    if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
-            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))):
-        raise ValueError("trainer.lbfgs runs in one process (its line search needs the whole batch's loss): "
-                         "set trainer.lbfgs.steps=0 for a multi-device run")
+    _one_process(cfg, "lbfgs", "its line search needs the whole batch's loss")
     return out
 
 
 def lm_settings(cfg: DictConfig) -> dict | None:
     """``trainer.lm`` checked: ``{"steps", "damping", "check_val_every_n_epoch"}``, or None when the run has no
     Levenberg–Marquardt stage (``steps: 0`` or no block)."""
-    block = to_plain(cfg.trainer.get("lm")) or {}
-    known = ("steps", "damping", "check_val_every_n_epoch")
-    unknown = sorted(set(block) - set(known))
-    if unknown:
-        raise ValueError(f"unknown trainer.lm key(s) {unknown}; the keys are {sorted(known)}")
-    if not block.get("steps"):
+    block = _stage_block(cfg, "lm", ("steps", "damping", "check_val_every_n_epoch"), "Levenberg-Marquardt")
+    if block is None:
         return None
-    missing = [k for k in known if block.get(k) is None]  # the values are conf/trainer/default.yaml's
-    if missing:
-        raise ValueError(f"trainer.lm.{missing[0]} is missing: the Levenberg-Marquardt stage needs {list(known)} "
-                         "(see conf/trainer/default.yaml)")
     out = {"steps": int(block["steps"]), "damping": float(block["damping"]),
            "check_val_every_n_epoch": int(block["check_val_every_n_epoch"])}
     if out["steps"] < 0 or out["check_val_every_n_epoch"] < 1 or not out["damping"] > 0:
@@ -202,13 +209,8 @@ def lm_settings(cfg: DictConfig) -> dict | None:
     if lbfgs_settings(cfg) is not None:
         raise ValueError("trainer.lbfgs.steps and trainer.lm.steps are both set: the stage after Adam is one of "
                          "them; set the other's steps to 0")
+    _one_process(cfg, "lm", "each step needs every record's Jacobian")
     t = cfg.trainer
-    devices = t.get("devices", 1)
-    if (int(t.get("num_nodes", 1)) > 1 or "ddp" in str(t.get("strategy", "auto"))
-            or (isinstance(devices, int) and devices > 1) or isinstance(devices, (list, tuple))
-            or (isinstance(devices, str) and devices.strip().isdigit() and int(devices) > 1)):
-        raise ValueError("trainer.lm runs in one process (each step needs every record's Jacobian): set "
-                         "trainer.lm.steps=0 for a multi-device run")
     if str(t.get("accelerator", "cpu")) != "cpu":
         raise ValueError(f"trainer.lm runs on the CPU (its Jacobians come from the compiled loop on the host), not "
                          f"trainer.accelerator={t.get('accelerator')}: use trainer=default, or trainer.lm.steps=0")

@@ -24,7 +24,7 @@ import torch
 
 from ..optim import marquardt_step
 from ..physics.parameters import project_to_bounds
-from ..simulate import simulate, simulate_jacobian
+from ..simulate import simulate_jacobian
 from ..simulate.fast.function import weight_columns
 
 __all__ = ["MarquardtStage", "StageStep", "check_module"]
@@ -81,12 +81,6 @@ class MarquardtStage:
                 at += p.numel()
 
     # -- residuals ---------------------------------------------------------------------------------
-    @staticmethod
-    def _inputs(module, batch):
-        t = (batch["t"] - batch["t"][:, :1]).to(module.dtype)
-        U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(module.dtype)
-        return U, t
-
     def _scale(self, module) -> float:
         return module.y_scale if module.normalise_loss else 1.0
 
@@ -96,9 +90,7 @@ class MarquardtStage:
         sse, n, scale = 0.0, 0.0, self._scale(module)
         with torch.no_grad():
             for batch in records:
-                U, t = self._inputs(module, batch)
-                y = simulate(module.model, U, t=t, conditions=module.conditions(batch),
-                             initial_state=module._initial_state(batch), settings=module.sim)[..., 0]
+                y = module.simulate_nominal(batch, model=module.model)
                 m = batch["mask"].to(y)
                 sse += float((((y - batch["y"].to(y)) / scale).square() * m).sum())
                 n += float(m.sum())
@@ -113,7 +105,7 @@ class MarquardtStage:
         Jtr = np.zeros(n_coord)
         sse, n = 0.0, 0.0
         for batch in records:
-            U, t = self._inputs(module, batch)
+            U, t = module.sim_inputs(batch)
             cond = module.conditions(batch)
             B = U.shape[0]
             with torch.enable_grad():

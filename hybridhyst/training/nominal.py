@@ -131,19 +131,22 @@ class NominalMixin:
     def _fit_state_scale(self, batch, model, s0):
         """Each state's spread along the batch, simulated from the plain start (1 where a state stays put: the
         network's latent states, dimensionless by design)."""
-        t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
-        U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
+        U, t = self.sim_inputs(batch)
         with torch.no_grad():
             _, states = simulate(model, U, t=t, conditions=self.conditions(batch), initial_state=s0,
                                  return_states=True, settings=self.sim)
         sd = states.reshape(-1, states.shape[-1]).std(0)
         self.state_scale.copy_(torch.where(torch.isfinite(sd) & (sd > 1e-12), sd, torch.ones_like(sd)))
 
+    def sim_inputs(self, batch) -> tuple[torch.Tensor, torch.Tensor]:
+        """The simulator's input ``(batch, time, 3)`` (u, u̇, ü) and each row's times from its start."""
+        t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
+        return torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype), t
+
     def simulate_nominal(self, batch, return_states: bool = False, model=None):
         """Nominal response ``(batch, time)`` (and states ``(batch, time, S)``) along each row's input; ``model``
         simulates another model with the nominal's structure instead (a hybrid's augmented model)."""
-        t = (batch["t"] - batch["t"][:, :1]).to(self.dtype)
-        U = torch.stack([batch["u"], batch["du"], batch["ddu"]], dim=-1).to(self.dtype)
+        U, t = self.sim_inputs(batch)
         model = self.nominal if model is None else model
         res = simulate(model, U, t=t, conditions=self.conditions(batch),
                        initial_state=self._initial_state(batch, model), return_states=return_states, settings=self.sim)
