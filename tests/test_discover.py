@@ -359,3 +359,72 @@ def test_a_record_the_discovered_model_diverges_on_is_named_in_the_report_and_di
     said = []
     assert check_discovery(result, keep_going=True, warn=said.append)[0].record == "coarse"
     assert said and said[0].startswith("warning: the discovered model's simulation diverged")
+
+
+def _softening_damper(noise: float = 0.5, seed: int = 3) -> list[Record]:
+    """A damper whose spring softens with use and remembers it from record to record, made with numpy alone:
+    F = k(S) x + c v + AR(1) noise, k(S) = k0 (1 − a (1 − exp(−S / L))), S the exact travel of the sine (4 A per
+    period, piecewise within one) from 60 mm of use before the first record; seven sine records in the order they
+    were measured."""
+    def travel(A, f, t):
+        ph, n = (f * t) % 1.0, np.floor(f * t)
+        s = np.sin(2 * np.pi * ph)
+        return 4 * A * n + np.where(ph < 0.25, A * s, np.where(ph < 0.75, 2 * A - A * s, 4 * A + A * s))
+
+    rng = np.random.default_rng(seed)
+    k0, a, L, c, used = 12.0, 0.4, 250.0, 0.8, 60.0
+    out = []
+    for A, f in [(4, 1.0), (8, 0.5), (6, 1.5), (3, 2.0), (8, 1.0), (5, 0.5), (6, 1.0)]:
+        fs = 200.0
+        t = np.arange(int((4.0 / f if f < 1.5 else 3.0) * fs)) / fs
+        x, v = A * np.sin(2 * np.pi * f * t), 2 * np.pi * f * A * np.cos(2 * np.pi * f * t)
+        k = k0 * (1 - a * (1 - np.exp(-(used + travel(A, f, t)) / L)))
+        e = np.empty(len(t))
+        e[0], w = rng.normal(0, noise), rng.normal(0, noise * math.sqrt(1 - 0.25), len(t))
+        for i in range(1, len(t)):
+            e[i] = 0.5 * e[i - 1] + w[i]
+        out.append(Record(name=f"A{A}_f{f}", t=t, x=x, y=k * x + c * v + e,
+                          conditions={"amplitude": float(A), "frequency_hz": f}, units={"x": "mm", "y": "N"}))
+        used += travel(A, f, np.array([len(t) / fs]))[0]
+    return out
+
+
+def test_a_drift_with_travel_carried_from_record_to_record_is_named_and_predicts_a_later_record(float64):
+    """Records in the order they were measured (``carried_travel``, the default): the stiffness's drift with travel
+    starts each record at the travel before it, names the softening and predicts the held-out record (the fourth
+    of seven) at the noise; started afresh in every record (``carried_travel=False``) the drift cannot follow the
+    records and nothing is named. The travel before a record is no trend condition."""
+    from hybridhyst.physics.build import build_model
+
+    def run(carried: bool):
+        nominal = build_model("constitutive", {"spring": {"effect": "linear_stiffness", "k": 10.0},
+                                               "viscous": {"effect": "viscous", "c": 1.0}})
+        return discover(_softening_damper(), nominal, candidates=["travel_stiffness", "coulomb", "cubic_stiffness"],
+                        split={"held_out": [{"amplitude": [3.0]}], "val": [{"amplitude": [5.0]}]}, conditions=True,
+                        noise_sd=0.5, carried_travel=carried, **FAST).report
+
+    rep = run(True)
+    assert [s["effect"] for s in rep["steps"]] == ["travel_stiffness"]
+    assert rep["after"]["test_rmse"] <= 1.2 * 0.5 < rep["before"]["test_rmse"]
+    new = rep["steps"][0]["new_coordinates"]
+    assert new["travel_stiffness.s0.c1"] == pytest.approx(1.0, abs=0.1)  # the records' travel carries over whole
+    assert new["travel_stiffness.lam"] == pytest.approx(1 / 250, rel=0.2)
+    assert not any("travel_before" in s["effect"] for s in rep["steps"] + rep["rejected"])
+    off = run(False)
+    assert off["steps"] == [] and off["after"]["test_rmse"] > 2 * 0.5
+
+
+def test_the_travel_before_each_record_is_the_input_travel_of_those_before_it():
+    from hybridhyst.data import with_travel_before
+
+    t = np.linspace(0.0, 1.0, 5)
+    recs = [Record(name=n, t=t, x=x, y=np.zeros(5)) for n, x in
+            (("a", np.array([0.0, 1.0, 0.0, -1.0, 0.0])), ("b", np.array([0.0, 2.0, 2.0, 2.0, 0.0])),
+             ("c", np.zeros(5)))]
+    out = with_travel_before(recs)
+    assert [r.conditions["travel_before"] for r in out] == [0.0, 4.0, 8.0]
+    assert "travel_before" not in recs[0].conditions  # new records
+    assert with_travel_before(out) == out  # given already: kept
+    recs[1].conditions["travel_before"] = 3.0
+    with pytest.raises(ValueError, match="some records only"):
+        with_travel_before(recs)

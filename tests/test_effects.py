@@ -117,6 +117,36 @@ def test_a_travel_drift_levels_off_over_the_inverse_of_lambda(backend):
     assert float(worked[1, -1]) == pytest.approx(0.5, rel=1e-3)  # 4 units of travel: levelled off
 
 
+@pytest.mark.parametrize("backend", ["reference", "fast"])
+@pytest.mark.parametrize("lam", [0.0, 2.0])
+def test_a_travel_drift_started_at_the_travel_before_the_record_continues_its_curve(backend, lam):
+    """With ``s0``, the travel before the record, the worked travel starts where s0 of travel left it, so the
+    record continues the curve of one long record: s = (1 − exp(−λ (s0 + travel))) / λ (s0 + travel at λ = 0);
+    the compiled Jacobian w.r.t. s0 and λ equals central differences, at λ = 0 too (where the closed form has no
+    derivative w.r.t. λ and the series gives it)."""
+    from hybridhyst.simulate.api import simulate_jacobian
+
+    r, s0 = ramps([1.0, -2.0], 2.0, 0.01), 0.7
+    model = Constitutive([TravelStiffness(dk=-0.3, lam=lam, s0=s0)]).double()
+    F = respond(model, r["inputs"], t=r["t"], backend=backend)
+    x, v = r["inputs"][..., 0], r["inputs"][..., 1]
+    travel = s0 + v.abs() * r["t"]
+    worked = travel if lam == 0 else (1 - torch.exp(-lam * travel)) / lam
+    assert torch.allclose(F, -0.3 * worked * x, atol=1e-8)
+    if backend == "fast":
+        values = {"travel_stiffness": {k: torch.tensor([v], dtype=torch.float64)
+                                       for k, v in model.effects["travel_stiffness"].config().items() if k != "effect"}}
+        inputs = r["inputs"][:1]
+        _, dy, keys = simulate_jacobian(model, inputs, r["t"], values=values, substeps=1)
+        h = 1e-6
+        for name in ("s0", "lam"):
+            up, down = ({"travel_stiffness": {**values["travel_stiffness"], name: values["travel_stiffness"][name] + d}}
+                        for d in (h, -h))
+            fd = (simulate(model, inputs, r["t"], values=up) - simulate(model, inputs, r["t"], values=down))[0, :, 0]
+            np.testing.assert_allclose(dy[0, :, 0, keys.index(("travel_stiffness", name))].numpy(),
+                                       (fd / (2 * h)).numpy(), atol=1e-6)
+
+
 def test_attenuation_value_constitutive():
     x = torch.tensor([[0.0, 1.0, -2.0, 3.0]])
     F = respond(Constitutive([Attenuation(xi=0.3)]), x, dt=0.1)

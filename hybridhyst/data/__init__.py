@@ -10,6 +10,7 @@ from .readers import read_npz as read_npz
 from .readers import read_table as read_table
 from .records import Record as Record
 from .records import RecordSet as RecordSet
+from .records import with_travel_before as with_travel_before
 from .splits import Split as Split
 
 __all__ = [
@@ -24,4 +25,5 @@ __all__ = [
     "read_mat",
     "read_npz",
     "read_table",
+    "with_travel_before",
 ]

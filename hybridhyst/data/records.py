@@ -9,7 +9,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-__all__ = ["Record", "RecordSet", "validate_channels"]
+__all__ = ["TRAVEL_BEFORE", "Record", "RecordSet", "validate_channels", "with_travel_before"]
+
+# the condition that says how far the input travelled before a record started (``with_travel_before``)
+TRAVEL_BEFORE = "travel_before"
 
 
 def _rows(mask: np.ndarray, rows: np.ndarray | None = None, limit: int = 5) -> str:
@@ -340,3 +343,25 @@ class RecordSet:
         out = pd.concat(frames, ignore_index=True)
         out.attrs["units"] = dict(self.records[0].units)
         return out
+
+
+def with_travel_before(records, name: str = TRAVEL_BEFORE) -> list[Record]:
+    """The records, in the order they were measured, each with the condition ``name``: the distance the input x
+    travelled in the records before it, Σ |Δx| over their samples after any warm-up (x's unit; 0 for the first).
+    A drift with travel that a device carries from record to record (a spring that softens with use, a seal that
+    wears in) starts each record where the records before it left it (``TravelEffect``'s ``s0``); motion between
+    records that was not recorded is not in it. New records; the given ones are unchanged. A record that already
+    has the condition keeps its own value (a ``ValueError`` if only some have it)."""
+    records = list(records.records if isinstance(records, RecordSet) else records)
+    have = [name in r.conditions for r in records]
+    if all(have):
+        return records
+    if any(have):
+        raise ValueError(f"condition {name!r} is given for some records only ("
+                         f"{', '.join(r.name for r, h in zip(records, have) if h)}); give it for every record or "
+                         "for none (it is then the travel of the records before each, in their order)")
+    out, before = [], 0.0
+    for r in records:
+        out.append(dataclasses.replace(r, conditions={**r.conditions, name: before}))
+        before += float(np.abs(np.diff(r.x[r.warmup:])).sum())
+    return out

@@ -12,8 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..data.records import TRAVEL_BEFORE
 from ..identify.space import trend_scale
 from ..physics.effects import EFFECTS, Effect
+from ..physics.effects.travel_drift import TravelEffect
 from ..physics.models import DrivenOscillator
 from ..physics.parameters import Constant, Linear
 
@@ -29,6 +31,9 @@ class Scales:
     x: float
     v: float
     u: float
+    # the records are a sequence (each carries the condition ``data.records.TRAVEL_BEFORE``): the largest travel
+    # before a record, which scales the travel a drift with travel carries into each (None: not a sequence)
+    travel: float | None = None
 
     @property
     def t(self) -> float:
@@ -45,7 +50,9 @@ class Scales:
         pos = lambda a: float(np.std(a)) or float(np.max(np.abs(a))) or 1.0  # noqa: E731
         if oscillator:
             return cls(F=pos(u), x=pos(y), v=pos(v), u=pos(u))
-        return cls(F=pos(y), x=pos(u), v=pos(v), u=pos(u))
+        before = [r.conditions.get(TRAVEL_BEFORE) for r in records]
+        travel = (max(before) or None) if all(isinstance(b, float) for b in before) else None
+        return cls(F=pos(y), x=pos(u), v=pos(v), u=pos(u), travel=travel)
 
     def of_unit(self, template: str) -> float | None:
         """The scale of a unit template such as ``"F*t/x"`` or ``"F/(x*u)"``; None for dimensionless."""
@@ -155,8 +162,16 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
             starts.append(start({p: neutral.get(p, low[p]) for p in free}))
         starts = [s for i, s in enumerate(starts) if s not in starts[:i]]  # a start clipped onto another
 
-        def build(m, key=key, cls=cls, start=starts[0], held=held):
-            values = {k.split(".", 1)[1]: v for k, v in start.items()}
+        carried = scales.travel is not None and issubclass(cls, TravelEffect)
+        if carried:  # the travel before each record, T0 + b · travel_before, from every start with b 0 and 1
+            c0, c1 = f"{key}.s0.c0", f"{key}.s0.c1"
+            bounds[c0], bounds[c1] = (0.0, 100.0 * scales.travel), (0.0, 10.0)
+            starts = [{**s, c0: 0.0, c1: b} for b in (0.0, 1.0) for s in starts]
+
+        def build(m, key=key, cls=cls, start=starts[0], held=held, carried=carried):
+            values = {k.split(".", 1)[1]: v for k, v in start.items() if k.count(".") == 1}
+            if carried:
+                values["s0"] = {"kind": "linear", "slope": 0.0, "intercept": 0.0, "condition": TRAVEL_BEFORE}
             return _placed(m, key, cls(**values, **held, fixed=sorted(held)))
 
         doc = (cls.__doc__ or name).strip().splitlines()[0]

@@ -31,7 +31,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 from ..analysis.noise import noise_sd
-from ..data.records import RecordSet
+from ..data.records import TRAVEL_BEFORE, RecordSet, with_travel_before
 from ..data.splits import Split, check_conditions
 from ..identify import identify
 from ..identify.space import outside_domain
@@ -90,6 +90,8 @@ class Loop:
         self.start_time = time.perf_counter()
         self.options = o = options
         records = records if isinstance(records, RecordSet) else RecordSet(as_records(records))
+        if o.carried_travel and len(records) > 1 and not isinstance(nominal, DrivenOscillator):
+            records = RecordSet(with_travel_before(records), records.name)  # before the split: every record's
         split = dict(o.split or {})
         parts_ = records.split(held_out=split.get("held_out"), val=split.get("val"))
         self.train, self.val, self.test = (as_records(p) for p in parts_)
@@ -97,6 +99,8 @@ class Loop:
             raise ValueError(f"the split {split} leaves no training record; hold out fewer conditions")
         self.splits = {"train": self.train, "val": self.val, "test": self.test}
         cond_values = trend_conditions(o.conditions, Split(self.train, self.val, self.test))
+        if isinstance(o.conditions, bool):  # the travel before a record is for the drifts with travel alone
+            cond_values.pop(TRAVEL_BEFORE, None)
         self.trend_values = dict(cond_values)  # the conditions a parameter may depend on (a leftover network's too)
         check_conditions(Split(self.train, self.val, self.test), conditions_used(nominal),
                          "the nominal model (a parameter as a function of a condition)")

@@ -47,6 +47,12 @@ class DiscoverSettings:
     start_states : also try starting every record from one fitted state of an element the motion before a record
         may leave away from rest (``Effect.start``: a gap's position, a presliding deflection), one candidate
         per such element (``candidates.start_candidates``).
+    carried_travel : the records are in the order they were measured, so a drift with travel (``travel_drift``,
+        ``travel_stiffness``, ``travel_damping``) may carry over from one to the next: each such candidate starts
+        every record at the travel before it, T0 + b · ``travel_before`` (the input's travel in the records before
+        it, ``data.records.with_travel_before``; T0, the travel before the first, and b ≥ 0 fitted; b = T0 = 0 is
+        the drift that starts every record afresh). Not for an oscillator driven by a force (its motion is the
+        response) nor with one record.
     criterion : "bic" or "aic", which must also fall; max_steps : greedy steps accepted at most (an effect, a
         parameter function of a condition or a start state each; the trends and the start state offered right
         after an effect is added do not count).
@@ -107,6 +113,7 @@ class DiscoverSettings:
     leftover: str = "static"
     validation: str = "records"
     start_states: bool = True
+    carried_travel: bool = True
     progress: bool = True
     workers: int = 1
     cross_check: str = "confirm"

@@ -17,8 +17,8 @@ class TravelDamping(TravelEffect):
         ṡ = |v| (1 − λ s)
         F = dc · s · v
 
-    s [x] is the worked travel since the record started (0 at its start; the cumulative travel when λ = 0,
-    levelling off at 1/λ otherwise: ``TravelEffect``), so the damping at travel s is the
+    s [x] is the worked travel (0 at the record's start, or what the travel s0 before it left; the cumulative
+    travel when λ = 0, levelling off at 1/λ otherwise: ``TravelEffect``), so the damping at travel s is the
     nominal's plus dc · s: dc < 0 for a damper whose fluid thins as the work heats it, dc > 0 for one that
     thickens.
 

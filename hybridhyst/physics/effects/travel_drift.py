@@ -6,21 +6,32 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+import torch
+
 from ..parameters import ParameterSpec
 from .base import Effect, Kinematics, absolute, rates, smooth_sign
 
 
 class TravelEffect(Effect):
-    """Base of the drifts with travel: one state, the worked travel s since the record started, ṡ = |v| (1 − λ s)
-    (it starts at 0 with every record). With λ = 0 (the default) s is the cumulative travel and the drift linear in
-    it; with λ > 0 the drift levels off over a travel of 1/λ, s = (1 − exp(−λ · travel)) / λ, as a run-in or a
-    Mullins-like softening does: one parameter more than a linear drift, which is its special case λ = 0. A
-    subclass's force is the drift of one linear term's coefficient times s times that term's carrier (the sign of
-    v, x or v): the nominal's coefficient at travel s is its own plus the drift times s, exactly for a term linear
-    in its coefficient. A drift across records (one test after another) is a parameter function of a condition
-    instead. Not registered: it has no force of its own."""
+    """Base of the drifts with travel: one state, the worked travel s, ṡ = |v| (1 − λ s). With λ = 0 (the default)
+    s is the cumulative travel and the drift linear in it; with λ > 0 the drift levels off over a travel of 1/λ,
+    s = (1 − exp(−λ · travel)) / λ, as a run-in or a Mullins-like softening does: one parameter more than a linear
+    drift, which is its special case λ = 0. A subclass's force is the drift of one linear term's coefficient times
+    s times that term's carrier (the sign of v, x or v): the nominal's coefficient at travel s is its own plus the
+    drift times s, exactly for a term linear in its coefficient. Not registered: it has no force of its own.
+
+    Where the record starts: at s = 0 (a device that forgets between records), or, with the start parameter
+    ``s0`` [x], the travel before the record, at the worked travel that travel left, (1 − exp(−λ s0)) / λ (s0 at
+    λ = 0). A device that remembers from record to record has s0 = the travel before the first record plus the
+    travel of the records before this one: a linear function of the condition ``travel_before``
+    (``data.records.with_travel_before``), which is how the discovery loop offers it (``discover.carried_travel``).
+    """
 
     state_dim = 1
+    start: ClassVar[dict[str, ParameterSpec]] = {
+        "s0": ParameterSpec(0.0, "x", (0.0, 1e12), "nonnegative", neutral=0.0,
+                            doc="travel before the record (0: the record starts with nothing worked)"),
+    }
 
     @staticmethod
     def levelling() -> ParameterSpec:
@@ -28,8 +39,22 @@ class TravelEffect(Effect):
         return ParameterSpec(0.0, "1/x", (0.0, 1e9), "nonnegative", neutral=0.0,
                              doc="inverse of the travel over which the drift levels off (0: linear in the travel)")
 
+    def initial_state(self, p, batch, controls=None):
+        if "s0" not in p:
+            return super().initial_state(p, batch, controls)
+        return worked_travel(p["s0"], p["lam"]).expand(batch)[:, None]
+
     def rate(self, p, kin: Kinematics, state):
         return rates(absolute(kin.v) * (1 - p["lam"] * state[:, 0]))
+
+
+def worked_travel(travel: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
+    """s after a travel from s = 0 under ṡ = |v| (1 − λ s): (1 − exp(−λ · travel)) / λ, and its series where λ ·
+    travel is small (exact at λ = 0, with the derivative w.r.t. λ, −travel² / 2, that the closed form loses there)."""
+    a = lam * travel
+    small = a.abs() < 1e-3
+    series = travel * (1 - a / 2 + a * a / 6 - a * a * a / 24)
+    return torch.where(small, series, -torch.expm1(-a) / torch.where(small, torch.ones_like(lam), lam))
 
 
 class TravelDrift(TravelEffect):
@@ -40,8 +65,8 @@ class TravelDrift(TravelEffect):
         ṡ = |v| (1 − λ s)
         F = dF · s · tanh(v / v_s)
 
-    s [x] is the worked travel since the record started (the state starts at 0 with every record; the
-    cumulative travel when λ = 0, levelling off at 1/λ otherwise: ``TravelEffect``), so the friction level at
+    s [x] is the worked travel (0 at the record's start, or what the travel s0 before it left; the cumulative
+    travel when λ = 0, levelling off at 1/λ otherwise: ``TravelEffect``), so the friction level at
     travel s is the nominal's plus dF · s: dF > 0 for a level that grows (run-in,
     contamination), dF < 0 for one that fades (heating, wear of the pads). It is the discovery loop's
     candidate for "slow drift / degradation of the friction level with cumulative travel"; the stiffness's and

@@ -17,8 +17,8 @@ class TravelStiffness(TravelEffect):
         ṡ = |v| (1 − λ s)
         F = dk · s · x
 
-    s [x] is the worked travel since the record started (0 at its start; the cumulative travel when λ = 0,
-    levelling off at 1/λ otherwise: ``TravelEffect``), so the spring's stiffness at travel
+    s [x] is the worked travel (0 at the record's start, or what the travel s0 before it left; the cumulative
+    travel when λ = 0, levelling off at 1/λ otherwise: ``TravelEffect``), so the spring's stiffness at travel
     s is the nominal's plus dk · s: dk < 0 for a spring that softens as it is worked (Mullins-like softening of
     an elastomer, a particle bed that loosens), dk > 0 for one that stiffens (compaction).
 
