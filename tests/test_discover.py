@@ -424,6 +424,11 @@ def test_the_travel_before_each_record_is_the_input_travel_of_those_before_it():
     out = with_travel_before(recs)
     assert [r.conditions["travel_before"] for r in out] == [0.0, 4.0, 8.0]
     assert "travel_before" not in recs[0].conditions  # new records
+    # a history, not an operating point: one group to leave out, no label
+    from hybridhyst.data.datamodule import condition_label
+    from hybridhyst.discover.validation import condition_groups
+
+    assert len(condition_groups(out)) == 1 and condition_label(out[1]) == "b" and out[1].operating == {}
     assert with_travel_before(out) == out  # given already: kept
     recs[1].conditions["travel_before"] = 3.0
     with pytest.raises(ValueError, match="some records only"):

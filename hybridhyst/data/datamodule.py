@@ -36,7 +36,7 @@ __all__ = ["Normaliser", "RecordDataModule", "condition_label", "prepare_record"
 def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
     """A readable label of a record's operating condition, e.g. ``"frequency_hz=1, amplitude_in=1.5"``;
     ``names`` picks the conditions shown (default: all non-empty ones); the record name if none."""
-    keys = [k for k in (names or record.conditions) if record.conditions.get(k) not in ("", None)]
+    keys = [k for k in (names or record.operating) if record.conditions.get(k) not in ("", None)]
     parts = [f"{k}={record.conditions[k]:g}" if isinstance(record.conditions[k], numbers.Number)
              else f"{k}={record.conditions[k]}" for k in keys]
     return ", ".join(parts) or record.name

@@ -172,6 +172,12 @@ class Record:
         return len(self.t)
 
     @property
+    def operating(self) -> dict:
+        """The conditions that say where the record was run (its operating point): ``conditions`` without the
+        ones derived from the records' history (``TRAVEL_BEFORE``)."""
+        return {k: v for k, v in self.conditions.items() if k != TRAVEL_BEFORE}
+
+    @property
     def dt(self) -> float:
         """Median sample interval [s]."""
         return float(np.median(np.diff(self.t))) if len(self.t) > 1 else float("nan")

@@ -86,7 +86,7 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
         r_all.append(r)
         for k, v in features(rec.t, rec.x).items():
             feats[k].append(v)
-        for k, v in rec.conditions.items():
+        for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))
         acs.append(_autocorrelation(r))

@@ -124,11 +124,11 @@ def rmse_on(model, records, sim: SimulationSettings, resolve: bool = True) -> fl
 
 
 def condition_groups(records: Sequence[Record]) -> list[list[Record]]:
-    """Records grouped by their operating conditions (every condition's value; records that share all of
-    them are one operating point), in the order first seen."""
+    """Records grouped by their operating conditions (every condition's value, ``Record.operating``; records
+    that share all of them are one operating point), in the order first seen."""
     groups: dict[tuple, list[Record]] = {}
     for r in records:
-        key = tuple(sorted((k, repr(v)) for k, v in r.conditions.items()))
+        key = tuple(sorted((k, repr(v)) for k, v in r.operating.items()))
         groups.setdefault(key, []).append(r)
     return list(groups.values())
 
