@@ -180,9 +180,9 @@ def _provenance(summary: dict) -> str:
 
 
 def _curves(summary: dict) -> list[str]:
-    """The last row with network parameters (of seed 0): its c(I) and hysteretic level at the training currents against the
-    generator's. The level compared is the force the hysteretic element saturates at, κ (β + γ)^(−1/n) (fitted n,
-    β, γ; the generator's α / √(β + γ)), since κ alone trades off against the scale of z."""
+    """The last row with network parameters (of seed 0): its c(I) and hysteretic level at the training currents
+    against the generator's. The level compared is the force the hysteretic element saturates at, κ (β + γ)^(−1/n)
+    (fitted n, β, γ; the generator's α / √(β + γ)), since κ alone trades off against the scale of z."""
     rows = [r for r in summary["runs"] if any(k.startswith("viscous.c@") for k in r["metrics"].get("physics", {}))
             and ", seed " not in r["name"]]  # a row of the protocol, not a repeat with another seed
     if not rows:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import time
 
-from ..data.records import TRAVEL_BEFORE
 from .diagnose import diagnose
 from .fitting import at as _at
 from .fitting import refit_on
@@ -79,7 +78,7 @@ def finish(loop) -> DiscoveryResult:
                      "substeps_scored": {s: after[s]["substeps"] for s in splits if splits[s]},
                      "leftover": o.leftover, "validation": o.validation, "cross_check": o.cross_check,
                      "start_states": o.start_states,
-                     "carried_travel": TRAVEL_BEFORE in (loop.train[0].conditions if loop.train else {}),
+                     "carried_travel": loop.scales.travel is not None,
                      "refit": bool(o.refit and loop.val)},
         "validation": {"kind": o.validation, "on": loop.score.scored, "rmse_before": loop.val0,
                        "rmse_after": loop.now.val, **parts(before=loop.val0, after=loop.now.val)},

@@ -118,6 +118,8 @@ class Loop:
         self.sim = o.simulation
         self.model = nominal
         self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
+        if not o.carried_travel:  # records that carry travel_before of their own do not carry it over either
+            self.scales = replace(self.scales, travel=None)
         # conditions with enough levels get their trends in one step (every constant parameter at once), before
         # the effects and again after them for the parameters the effects brought; the others keep the
         # one-parameter-at-a-time candidates
