@@ -433,3 +433,29 @@ def test_the_travel_before_each_record_is_the_input_travel_of_those_before_it():
     recs[1].conditions["travel_before"] = 3.0
     with pytest.raises(ValueError, match="some records only"):
         with_travel_before(recs)
+    # a warm-up is simulated first but was not measured: the record starts that much earlier, and adds only its
+    # scored travel to those after it
+    warm = [Record(name="w", t=t, x=np.array([0.0, 1.0, 0.0, 2.0, 0.0]), y=np.zeros(5), warmup=2),
+            Record(name="z", t=t, x=np.zeros(5), y=np.zeros(5))]
+    assert [r.conditions["travel_before"] for r in with_travel_before(warm)] == [-2.0, 4.0]
+
+
+def test_a_carried_drift_offers_no_shared_start_state_and_can_be_swapped_out():
+    """With the travel carried between records the drift's start follows each record's history: no start state
+    shared by every record is offered for it (nor without carry-over), and replacing it (a rival swap, a special
+    case) does not read it as one fitted start."""
+    from hybridhyst.discover.candidates import Candidate, Scales, effect_candidates, start_candidates
+    from hybridhyst.discover.selection import _with_starts
+    from hybridhyst.physics.build import build_model
+
+    nominal = build_model("constitutive", {"spring": {"effect": "linear_stiffness", "k": 10.0}})
+    carried, plain = Scales(F=1.0, x=1.0, v=1.0, u=1.0, travel=100.0), Scales(F=1.0, x=1.0, v=1.0, u=1.0)
+    (cand,) = effect_candidates(nominal, carried, ["travel_stiffness"])
+    assert {"travel_stiffness.s0.c0", "travel_stiffness.s0.c1"} <= set(cand.free)
+    model = cand.build(nominal)
+    (alone,) = effect_candidates(nominal, plain, ["travel_stiffness"])
+    assert "s0" not in alone.build(nominal).effects["travel_stiffness"].params
+    assert start_candidates(model, carried) == [] and start_candidates(alone.build(nominal), plain) == []
+    swap = _with_starts(effect_candidates(nominal, carried, ["coulomb"]), nominal, carried,
+                        model.effects["travel_stiffness"])
+    assert isinstance(swap, Candidate) and "coulomb" in swap.name

@@ -353,7 +353,8 @@ class RecordSet:
 
 def with_travel_before(records, name: str = TRAVEL_BEFORE) -> list[Record]:
     """The records, in the order they were measured, each with the condition ``name``: the distance the input x
-    travelled in the records before it, Σ |Δx| over their samples after any warm-up (x's unit; 0 for the first).
+    travelled in the records before it, Σ |Δx| over their samples after any warm-up (x's unit; 0 for the first),
+    less the record's own warm-up travel (simulated first, but not measured).
     A drift with travel that a device carries from record to record (a spring that softens with use, a seal that
     wears in) starts each record where the records before it left it (``TravelEffect``'s ``s0``); motion between
     records that was not recorded is not in it. New records; the given ones are unchanged. A record that already
@@ -368,6 +369,9 @@ def with_travel_before(records, name: str = TRAVEL_BEFORE) -> list[Record]:
                          "for none (it is then the travel of the records before each, in their order)")
     out, before = [], 0.0
     for r in records:
-        out.append(dataclasses.replace(r, conditions={**r.conditions, name: before}))
+        # a warm-up is simulated before the record's first scored sample but was not measured: the record's value
+        # is the travel before its simulated start, so that its scored samples start at ``before``
+        warm = float(np.abs(np.diff(r.x[: r.warmup + 1])).sum())
+        out.append(dataclasses.replace(r, conditions={**r.conditions, name: before - warm}))
         before += float(np.abs(np.diff(r.x[r.warmup:])).sum())
     return out

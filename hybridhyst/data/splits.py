@@ -26,6 +26,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .records import TRAVEL_BEFORE
+
 __all__ = ["Split", "as_queries", "check_conditions", "condition_mask"]
 
 Query = Mapping[str, object] | Callable[[object], bool]
@@ -182,6 +184,10 @@ def check_conditions(split: Split, names: Sequence[str], what: str, min_train_va
             if not any(name in r.conditions for r in every):
                 also = f", control channels: {controls}" if controls else (
                     "; a signal that varies in time is read as a control channel: name its column in data.controls")
+                if name == TRAVEL_BEFORE:  # a discovered drift carried between records reads it
+                    also += (f"; {name!r} is the input's travel in the records before each, in the order they were "
+                             "measured: hybridhyst.data.with_travel_before(records) adds it, or give it as a "
+                             "column (data.conditions)")
                 raise ValueError(f"{what}: no record has a condition {name!r}{hint}; numeric conditions of every "
                                  f"record: {usable}{also}")
             raise ValueError(f"{what}: condition {name!r}{hint} is not a number in {len(lacking)} of {len(every)} "

@@ -6,6 +6,7 @@ parameters' unit templates)."""
 from __future__ import annotations
 
 import copy
+import numbers
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -51,7 +52,8 @@ class Scales:
         if oscillator:
             return cls(F=pos(u), x=pos(y), v=pos(v), u=pos(u))
         before = [r.conditions.get(TRAVEL_BEFORE) for r in records]
-        travel = (max(before) or None) if all(isinstance(b, float) for b in before) else None
+        numeric = all(isinstance(b, numbers.Real) and not isinstance(b, bool) for b in before)
+        travel = (float(max(before)) or None) if numeric else None
         return cls(F=pos(y), x=pos(u), v=pos(v), u=pos(u), travel=travel)
 
     def of_unit(self, template: str) -> float | None:
@@ -224,7 +226,7 @@ def start_candidates(model, scales: Scales) -> list[Candidate]:
     box is the general one for a real coordinate (``_interval``)."""
     out = []
     for key, effect in model.effects.items():
-        if not effect.start or any(name in effect.params for name in effect.start):
+        if not effect.start or not effect.start_candidate or any(name in effect.params for name in effect.start):
             continue
         bounds, starts = {}, [{}]
         for pname, spec in effect.start.items():

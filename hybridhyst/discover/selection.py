@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from ..physics.parameters import Fixed
+from ..physics.parameters import Constant
 from .candidates import Candidate, effect_candidates, start_candidates
 from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .result import Change
@@ -68,8 +68,9 @@ def _with_starts(cands: list[Candidate], reduced, scales, replaced) -> Candidate
     started away from its centre). Each new start state is tried at the replaced one's fitted value where their
     units match (else 0) with every start of the effects, then at ``start_candidates``' values; a start state the
     user held (``fixed``) is not a fitted one."""
+    # a start that follows a condition (a drift's travel carried between records) is no one fitted state
     fitted = {spec.unit: float(replaced.params[name].value.detach()) for name, spec in replaced.start.items()
-              if name in replaced.params and not isinstance(replaced.params[name], Fixed)}
+              if name in replaced.params and isinstance(replaced.params[name], Constant)}
     if not fitted:
         return combined(cands)
     model = reduced

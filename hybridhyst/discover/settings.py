@@ -51,8 +51,8 @@ class DiscoverSettings:
         ``travel_stiffness``, ``travel_damping``) may carry over from one to the next: each such candidate starts
         every record at the travel before it, T0 + b · ``travel_before`` (the input's travel in the records before
         it, ``data.records.with_travel_before``; T0, the travel before the first, and b ≥ 0 fitted; b = T0 = 0 is
-        the drift that starts every record afresh). Not for an oscillator driven by a force (its motion is the
-        response) nor with one record.
+        the drift that starts every record afresh). Not for an oscillator (its motion is a response) nor with one
+        record.
     criterion : "bic" or "aic", which must also fall; max_steps : greedy steps accepted at most (an effect, a
         parameter function of a condition or a start state each; the trends and the start state offered right
         after an effect is added do not count).

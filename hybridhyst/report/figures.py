@@ -126,7 +126,7 @@ def axis_label(channel: str, unit: str | None) -> str:
 
 def _title(loop) -> str:
     """The panel title: the loop's condition values ("pressure_mpa=0.05, mixture=1:3"), else its name."""
-    conditions = getattr(loop, "operating", None) or getattr(loop, "conditions", None) or {}
+    conditions = loop.operating if hasattr(loop, "operating") else getattr(loop, "conditions", None) or {}
     text = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in conditions.items())
     return textwrap.fill(text or str(getattr(loop, "name", "")), 44)
 

@@ -166,6 +166,9 @@ class Effect(nn.Module):
     # given (``Clearance(q0=...)``); without them the state starts at 0. The discovery loop offers them as a
     # candidate (``discover.candidates.start_candidates``).
     start: ClassVar[dict[str, ParameterSpec]] = {}
+    # start_candidate: whether the loop offers one fitted start state shared by every record (False where the
+    # start follows the records' history instead: the drifts with travel, ``discover.carried_travel``)
+    start_candidate: ClassVar[bool] = True
 
     # What the discovery loop reads (discover/candidates.py). Declare these on the class; nothing else about an
     # effect is special-cased by name.

@@ -32,6 +32,7 @@ class TravelEffect(Effect):
         "s0": ParameterSpec(0.0, "x", (0.0, 1e12), "nonnegative", neutral=0.0,
                             doc="travel before the record (0: the record starts with nothing worked)"),
     }
+    start_candidate = False  # the loop offers the travel before each record instead (discover.carried_travel)
 
     @staticmethod
     def levelling() -> ParameterSpec:
