@@ -78,36 +78,36 @@ static void forward_row(int T, const double *U, const double *h, const double *t
     }
 }
 
-/* The right-hand side f and its whole Jacobians w.r.t. the state, fs (S, S), and w.r.t. all nt columns of th, ft
-   (S, nt): rhs_jac's (every network's output held) plus, with networks, their share row by row (one
-   back-propagation through the layers per state, rhs_net_vjp with a unit weight). */
-static inline void rhs_jac_full(const double *Y, const double *in, const double *th, int nt, double *f, double *fs,
-                                double *ft, double *buf) {
-    double FT[DIM(S * P)], FI[DIM(S * NI)], w[DIM(S)], gin[NI];
-    rhs_jac(Y, in, th, f, fs, FT, FI, buf);
-    for (int i = 0; i < S; i++)
-        for (int p = 0; p < nt; p++) ft[i * nt + p] = p < P ? FT[i * P + p] : 0.0;
+typedef void (*jac_kernel)(const double *, const double *, const double *, double *, double *, double *, double *,
+                           double *);
+typedef void (*vjp_kernel)(const double *, const double *, const double *, const double *, double *, double *,
+                           double *, double *);
+
+/* n values v of a kernel (the right-hand side, n = S; the outputs, n = O) and their whole Jacobians w.r.t. the
+   state, vs (n, S), and w.r.t. all nt columns of th, vt (n, nt): jac's (every network's output held) plus, with
+   networks, their share row by row (one back-propagation through the layers per value, vjp with a unit weight). */
+static inline void jac_full(jac_kernel jac, vjp_kernel vjp, int n, const double *Y, const double *in,
+                            const double *th, int nt, double *v, double *vs, double *vt, double *buf) {
+    double VT[DIM(n * P)], VI[DIM(n * NI)], w[DIM(n)], gin[DIM(NI)];
+    jac(Y, in, th, v, vs, VT, VI, buf);
+    for (int i = 0; i < n; i++)
+        for (int p = 0; p < nt; p++) vt[i * nt + p] = p < P ? VT[i * P + p] : 0.0;
     if (NETS)
-        for (int i = 0; i < S; i++) {
-            for (int r = 0; r < S; r++) w[r] = r == i ? 1.0 : 0.0;
+        for (int i = 0; i < n; i++) {
+            for (int r = 0; r < n; r++) w[r] = r == i ? 1.0 : 0.0;
             for (int q = 0; q < NI; q++) gin[q] = 0.0;
-            rhs_net_vjp(Y, in, th, w, fs + i * S, ft + i * nt, gin, buf);
+            vjp(Y, in, th, w, vs + i * S, vt + i * nt, gin, buf);
         }
 }
 
-/* The same for the outputs: g, gs (O, S), gt (O, nt). */
-static inline void out_jac_full(const double *st, const double *in, const double *th, int nt, double *g, double *gs,
-                                double *gt, double *buf) {
-    double GT[DIM(O * P)], GI[DIM(O * NI)], w[DIM(O)], gin[NI];
-    out_jac(st, in, th, g, gs, GT, GI, buf);
-    for (int o = 0; o < O; o++)
-        for (int p = 0; p < nt; p++) gt[o * nt + p] = p < P ? GT[o * P + p] : 0.0;
-    if (NETS)
-        for (int o = 0; o < O; o++) {
-            for (int r = 0; r < O; r++) w[r] = r == o ? 1.0 : 0.0;
-            for (int q = 0; q < NI; q++) gin[q] = 0.0;
-            out_net_vjp(st, in, th, w, gs + o * S, gt + o * nt, gin, buf);
-        }
+/* One row of a chain rule: row = direct + sum_i jac[i] * tangent[i] (tangent (S, nt)). */
+static inline void chain_row(double *row, const double *direct, const double *jac, const double *tangent, int nt) {
+    for (int p = 0; p < nt; p++) row[p] = direct[p];
+    for (int i = 0; i < S; i++) {
+        double ji = jac[i];
+        if (ji != 0.0)
+            for (int p = 0; p < nt; p++) row[p] += ji * tangent[i * nt + p];
+    }
 }
 
 /* Outputs y and their derivatives dy (T, O, nt) w.r.t. every column of th -- the P parameters, then the networks'
@@ -128,16 +128,10 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
     for (int i = 0; i < S * nt; i++) sig[i] = ds0[i];
     if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = 0; k < T; k++) {
-        out_jac_full(st, U + k * NI, th, nt, g, gs, gt, buf);
+        jac_full(out_jac, out_net_vjp, O, st, U + k * NI, th, nt, g, gs, gt, buf);
         for (int o = 0; o < O; o++) {
             y[k * O + o] = g[o];
-            double *row = dy + (k * O + o) * nt;
-            for (int p = 0; p < nt; p++) row[p] = gt[o * nt + p];
-            for (int i = 0; i < S; i++) {
-                double gi = gs[o * S + i];
-                if (gi != 0.0)
-                    for (int p = 0; p < nt; p++) row[p] += gi * sig[i * nt + p];
-            }
+            chain_row(dy + (k * O + o) * nt, gt + o * nt, gs + o * S, sig, nt);
         }
         if (k == T - 1) break;
         double hk = h[k] / sub;
@@ -156,16 +150,8 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
                     }
                 }
                 stage_input(U, k, (m + c[j]) / sub, in);
-                rhs_jac_full(Y, in, th, nt, K + j * s1, FS, FT, buf);
-                for (int i = 0; i < S; i++) {
-                    double *dki = dK + (j * s1 + i) * n1;
-                    for (int p = 0; p < nt; p++) dki[p] = FT[i * nt + p];
-                    for (int r = 0; r < S; r++) {
-                        double fsr = FS[i * S + r];
-                        if (fsr != 0.0)
-                            for (int p = 0; p < nt; p++) dki[p] += fsr * dY[r * nt + p];
-                    }
-                }
+                jac_full(rhs_jac, rhs_net_vjp, S, Y, in, th, nt, K + j * s1, FS, FT, buf);
+                for (int i = 0; i < S; i++) chain_row(dK + (j * s1 + i) * n1, FT + i * nt, FS + i * S, dY, nt);
             }
             for (int i = 0; i < S; i++) {
                 double acc = 0.0;
