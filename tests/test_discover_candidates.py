@@ -171,3 +171,36 @@ def test_candidates_fitted_side_by_side_give_the_same_result_as_one_after_anothe
             assert a["evidence"]["ranking"] == b["evidence"]["ranking"]
             assert a["parameters"] == b["parameters"]
     assert one["after"]["test_rmse"] == three["after"]["test_rmse"]
+
+
+def test_a_nominal_declared_far_from_the_data_is_followed_out_of_its_box_and_the_report_says_so(float64):
+    """A spring declared at 1/60 of what the loops show (numpy closed form, k x + c v + white noise): the nominal's
+    first fit re-centres its box (``recentre``, on in the loop's first fit) and starts the loop at the data's
+    stiffness, not at the box's edge; discovery.json's ``before.first_fit`` and report.md say so. The terminal
+    names an edge only when the re-centring ran to its cap with the edge still held."""
+    from dataclasses import replace
+
+    from hybridhyst.cli.discover import summary_lines
+    from hybridhyst.discover.report import report_markdown
+    from hybridhyst.physics.effects import LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+
+    rng = np.random.default_rng(11)
+    records = []
+    for amp, f in ((2.0, 1.0), (1.0, 3.0), (1.5, 2.0)):
+        t = np.arange(0.0, 2.0, 1 / 200)
+        x, v = amp * np.sin(2 * np.pi * f * t), amp * 2 * np.pi * f * np.cos(2 * np.pi * f * t)
+        records.append(Record(f"a{amp}f{f}", t, x, 600.0 * x + 40.0 * v + 0.5 * rng.standard_normal(t.size),
+                              conditions={"amplitude": amp}))
+    nominal = Constitutive({"spring": LinearStiffness(k=10.0), "viscous": Viscous(c=30.0)}).double()
+    res = discover(records, nominal, candidates=["coulomb"], conditions=False, noise_sd=0.5,
+                   split={"held_out": {"amplitude": [1.5]}}, **FAST)
+    first = res.report["before"]["first_fit"]
+    assert first["recentred"] >= 1 and not first["at_bounds"] and first["recentre"] == 3
+    assert res.report["before"]["parameters"]["spring.k"]["value"] == pytest.approx(600.0, rel=0.01)
+    assert "searched again around values at the edge of its search box" in report_markdown(res, "t", "N")
+    assert not any("first fit" in line for line in summary_lines(res.report, "N", "run"))
+    held = {**res.report, "before": {**res.report["before"],
+                                     "first_fit": {**first, "recentred": 3, "at_bounds": {"spring.k": "upper"}}}}
+    assert any("spring.k (upper edge)" in line for line in summary_lines(held, "N", "run"))
+    assert "still at an edge of the box: `spring.k` (upper)" in report_markdown(replace(res, report=held), "t", "N")

@@ -354,3 +354,39 @@ def test_step_doubling_with_a_noise_level_ends_at_the_least_squares_minimum():
         x = torch.tensor([res.x[n] for n in problem.space.names], dtype=torch.float64)
         after = levenberg_marquardt(problem.residuals, problem.space, x[None], iters=40, progress=False).cost
         assert res.cost - after < 1e-3 * 0.02**2, (seed, res.cost, after)  # 0.1 % of the noise level's MSE
+
+
+def _sine_damper_records(k, c, Fc=0.0, noise=0.5, seed=3) -> list[Record]:
+    """Loops of F = k x + c v + Fc sgn(v) in closed form (numpy, no library code), white noise ``noise``."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i, (amp, f) in enumerate([(2.0, 1.0), (1.0, 3.0)]):
+        t = np.arange(0.0, 2.0, 1.0 / 400.0)
+        x, v = amp * np.sin(2 * np.pi * f * t), amp * 2 * np.pi * f * np.cos(2 * np.pi * f * t)
+        y = k * x + c * v + Fc * np.sign(v) + noise * rng.standard_normal(t.size)
+        out.append(Record(name=f"sine{i}", t=t, x=x, y=y, units={"x": "mm", "y": "N"}))
+    return out
+
+
+def test_a_declared_value_far_from_the_data_is_followed_out_of_its_box(float64):
+    """A spring declared at 1/60 of what the loops show: the default box (÷/× 10 about it) stops the fit at its upper
+    edge, which the result says; with ``recentre`` the search runs again around the edge, reaches the noise and
+    says how many times it moved. A Coulomb level the data lack, pressed against its lower edge, is followed
+    down only while that lowers the cost by 1 % or more (each box ends a factor 10 lower): not to the cap."""
+    def model(k, Fc=None):
+        effects = {"spring": EFFECTS["linear_stiffness"](k=k), "viscous": Viscous(c=30.0)}
+        if Fc is not None:
+            effects["coulomb"] = EFFECTS["coulomb"](Fc=Fc)
+        return Constitutive(effects, units={"x": "mm", "F": "N", "t": "s"}).double()
+
+    records = _sine_damper_records(600.0, 40.0)
+    opts = {"progress": False, "fisher": False, "seed": 0}
+    plain = identify(model(10.0), records, **opts)
+    assert plain.at_bounds.get("spring.k") == "upper" and plain.rmse > 10 * 0.5 and plain.recentred == 0
+    followed = identify(model(10.0), records, recentre=3, **opts)
+    assert followed.recentred >= 1 and not followed.at_bounds
+    assert followed.rmse < 1.05 * 0.5 and followed.x["spring.k"] == pytest.approx(600.0, rel=0.01)
+    assert followed.evaluations > plain.evaluations and followed.wall_s > 0
+    vanishing = identify(model(600.0, Fc=5.0), records, recentre=5, **opts)
+    assert vanishing.rmse < 1.05 * 0.5 and 1 <= vanishing.recentred < 5
+    assert vanishing.x["coulomb.Fc"] < 0.1

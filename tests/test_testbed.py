@@ -135,6 +135,10 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     clean = by["clean_pressure_cubic_damper"]
     assert score(clean, _report([], trends=["trends~pressure_kpa"]), 1.0)["ok_effect"]
     assert not score(clean, _report([], trends=["spring.k~amplitude"]), 1.0)["ok_effect"]
+    # one parameter at a time (too few training levels for the joint step): the truth's condition all the same
+    assert score(clean, _report([], trends=["spring.k~pressure_kpa", "cubic.k3~pressure_kpa"]), 1.0)["ok_effect"]
+    assert not score(clean, _report([], trends=["spring.k~pressure_kpa", "trends~amplitude"]), 1.0)["ok_effect"]
+    assert not score(clean, _report([], trends=["clearance.start"]), 1.0)["ok_effect"]  # a start state is added
     assert family("asymmetry", blind.case("asymmetric_viscous_damper")) is None
     _every_case_builds_splits_and_simulates(BLIND_CASES)
 

@@ -25,6 +25,7 @@ from .common import (
     CONF_DIR,
     check_app,
     check_model_data,
+    edge_line,
     guarded,
     hydra_entry,
     instantiate,
@@ -82,6 +83,11 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     lines += [f"  {text}" for text in
               (disagreement_line(s, unit) for s in (report.get("steps") or []) + (report.get("rejected") or []))
               if text]
+    first = (report.get("before") or {}).get("first_fit") or {}
+    if first.get("at_bounds") and first.get("recentred", 0) >= first.get("recentre", 0) > 0:
+        # the re-centring ran to its cap with values still at an edge: the declared values are far off
+        lines.append("  the nominal's first fit: " + edge_line(
+            first["at_bounds"], "discover.identify_options={recentre: N, bounds: ...}"))
     if report.get("stopped") == "max_steps":
         n = report.get("settings", {}).get("max_steps")
         lines.append(f"  stopped at the cap on effects added (discover.max_steps={n}), not by the acceptance rule: "

@@ -133,7 +133,8 @@ def _report(summary: dict) -> str:
 
 
 # the keys that widen identification's search box, for the sentence on coordinates at its edge
-WIDEN = "identify.bounds={name: [low, high]}, or identify.box_factor"
+WIDEN = ("identify.bounds={name: [low, high]}, identify.box_factor, or identify.recentre=N to search again around "
+         "the edge")
 
 
 def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]:

@@ -54,7 +54,8 @@ def finish(loop) -> DiscoveryResult:
     report = {
         "before": {"test_rmse": before["test"].get("rmse"), "train_rmse": before["train"]["rmse"],
                    "val_rmse": before["val"].get("rmse"), "per_condition": before["test"].get("per_condition", {}),
-                   "parameters": parameter_values(initial), "diagnostics": loop.diag_before},
+                   "parameters": parameter_values(initial), "diagnostics": loop.diag_before,
+                   "first_fit": loop.first_fit},
         "after": {"test_rmse": after["test"].get("rmse"), "train_rmse": after["train"]["rmse"],
                   "val_rmse": after["val"].get("rmse"), "per_condition": after["test"].get("per_condition", {}),
                   "parameters": parameter_values(model), "diagnostics": diag_after},

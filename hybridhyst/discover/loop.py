@@ -117,6 +117,7 @@ class Loop:
         self.base_rule = Acceptance(o.margin, o.criterion, self.n_train, noise=self.noise["sd"])
         self.sim = o.simulation
         self.model = nominal
+        self.first_fit = None  # the nominal's identification (``nominal``): its box re-centred, edges left
         self.scales = Scales.of(self.train, oscillator=isinstance(nominal, DrivenOscillator))
         if not o.carried_travel:  # records that carry travel_before of their own do not carry it over either
             self.scales = replace(self.scales, travel=None)
@@ -226,7 +227,10 @@ class Loop:
         """Identify the nominal on the training records (unless told not to) and converge its fit: "before"."""
         o = self.options
         if o.fit_nominal:
-            identify(self.model, self.train, o.first_fit())
+            settings = o.first_fit()
+            first = identify(self.model, self.train, settings)
+            self.first_fit = {"rmse": first.rmse, "recentred": first.recentred, "recentre": settings.recentre,
+                              "at_bounds": dict(first.at_bounds)}
         outside = outside_domain(self.model, self.train)
         if outside:
             raise ValueError(f"the nominal model's parameter {outside[0]}: outside its domain on a training record "

@@ -198,6 +198,12 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
                   f"validation records ({len(rf['records'])}); test and training errors are the refitted models' "
                   f"(without the refit: test {_fmt(rf['before']['test_rmse_without_refit'])} → "
                   f"{_fmt(rf['after']['test_rmse_without_refit'])} {unit})."]
+    first = b.get("first_fit") or {}
+    if first.get("recentred") or first.get("at_bounds"):
+        edges = ", ".join(f"`{n}` ({side})" for n, side in first.get("at_bounds", {}).items())
+        lines += ["", f"The nominal's first fit searched again around values at the edge of its search box "
+                  f"{first.get('recentred', 0)} time(s) (`identify`'s `recentre`)"
+                  + (f"; still at an edge of the box: {edges}." if edges else ".")]
     if b["per_condition"]:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]

@@ -22,7 +22,7 @@ CROSS_CHECK = ("confirm", "report", "off")
 RENAMED = {k: v for k, v in IDENTIFY_RENAMED.items() if k != "method"} | {
     "method": "simulation=SimulationSettings(method=...)"}
 # the nominal's first fit (``fit_nominal``) before ``identify_options`` are laid over it
-FIRST_FIT = IdentifySettings(pop=24, generations=30, restarts=4, fisher=False)
+FIRST_FIT = IdentifySettings(pop=24, generations=30, restarts=4, fisher=False, recentre=3)
 
 
 @dataclass(frozen=True)
@@ -65,8 +65,10 @@ class DiscoverSettings:
         other; without it, σ is estimated from the training responses (``analysis.noise``) and capped by the
         current model's training RMSE (both reported).
     fit_nominal : identify the nominal on the training records first (``hybridhyst.identify``: CMA-ES with a
-        population of 24 for 30 generations, 4 restarts refined, then ``identify_options``, any
-        ``IdentifySettings`` fields); else start from its current values.
+        population of 24 for 30 generations, 4 restarts refined, the box re-centred up to 3 times on values it
+        stopped at an edge (``recentre``: a declared value more than ``box_factor`` off is followed), then
+        ``identify_options``, any ``IdentifySettings`` fields; the report's ``before.first_fit`` says how it
+        ended); else start from its current values.
     simulation : how models are simulated (``SimulationSettings``; "fast": compiled, cached per model structure);
         every fit resolves its own sub-steps from ``simulation.substeps`` by step doubling.
     refit : once the structure is chosen, refit every parameter of the final model, and of the nominal it is

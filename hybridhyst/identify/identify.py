@@ -8,6 +8,7 @@ record r's conditions. So a model whose parameters are functions of a condition 
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -47,6 +48,7 @@ class IdentificationResult:
     at_bounds : ``{name: "lower" | "upper"}``, coordinates that ended at an edge of the search box (within
     0.1 % of its width, on the log scale where it searches one): the box, not the data, set them.
     substeps : sub-steps per sample the result was simulated with (chosen by step doubling with ``resolve``).
+    recentred : how many times the search was run again around values it left at an edge (``recentre``).
     resolution : relative RMS change of the identified model's response under halved steps at ``substeps``
     (``nan`` without ``resolve``; above ``simulate.api.RESOLVED`` where ``max_substeps`` did not resolve it).
     """
@@ -67,6 +69,7 @@ class IdentificationResult:
     at_bounds: dict[str, str] = field(default_factory=dict)
     substeps: int = 1
     resolution: float = math.nan
+    recentred: int = 0
 
 
 def _records(records) -> list[Record]:
@@ -176,7 +179,47 @@ def identify(model: nn.Module, records, settings: IdentifySettings | None = None
     """
     settings = (settings or IdentifySettings()).replace(**options)
     with intra_op_threads(settings.torch_threads):
-        return _identify(model, records, settings)
+        result = _identify(model, records, settings)
+        for k in range(int(settings.recentre)):
+            target = settings.target or ((1.01 * settings.noise_sd) ** 2 if settings.noise_sd else None)
+            if (target is not None and result.cost <= target) or not _box_moves(model, records, settings,
+                                                                                 result.at_bounds):
+                break
+            kept = copy.deepcopy(model.state_dict())
+            # the first search found the basin and the box stopped it: a short search about the values found (the
+            # box's centre) and the refinement follow it (a whole search again costs as much and finds the same)
+            again = _identify(model, records, settings.replace(seed=settings.seed + 1000 * (k + 1), **RECENTRED))
+            again.wall_s += result.wall_s
+            again.evaluations += result.evaluations
+            again.history = {key: result.history.get(key, []) + again.history.get(key, [])
+                             for key in dict.fromkeys([*result.history, *again.history])}
+            gain = again.cost < RECENTRE_GAIN * result.cost
+            if again.cost < result.cost:
+                again.recentred = k + 1
+                result = again
+            else:  # the search around the edge found nothing better: the fit before it, with the time it cost
+                model.load_state_dict(kept)
+                result.wall_s, result.evaluations, result.history = again.wall_s, again.evaluations, again.history
+            if not gain:  # an edge that only a vanishing parameter presses on: following it gains nothing
+                break
+        return result
+
+
+RECENTRE_GAIN = 0.99  # a search around an edge that lowers the cost by less than 1 % ends the re-centring
+RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search in a re-centred box
+
+
+def _box_moves(model, records, settings: IdentifySettings, edges: dict[str, str]) -> bool:
+    """Whether some coordinate at an edge (``edges``) that the user gave no bounds for lies inside the default box
+    centred on the model's values now: a search there can follow it (a domain's own limit, such as a share's 1,
+    stays an edge of every box)."""
+    edges = [n for n in edges if n not in settings.bounds]
+    if not edges:
+        return False
+    now = SearchSpace(model, settings.bounds, factor=settings.box_factor,
+                      condition_ranges=condition_ranges(_records(records)))
+    still = at_bounds(now, now.initial())
+    return any(n in now.names and n not in still for n in edges)
 
 
 def _problem(space, records, input_channels, sim: SimulationSettings, decimate: int = 1) -> RecordsProblem:

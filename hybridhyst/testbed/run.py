@@ -118,13 +118,21 @@ def score(case: Case, report: dict, wall_s: float) -> dict:
         row["ok"] = row["ok_effect"] and row["ok_param"] and row["ok_rmse"]
     elif case.category == "clean":
         # trends on a condition the truth's parameters follow are the truth; anything else is added
-        wrong = named + [t for t in trends if not any(t == f"trends~{c}" for c in case.trends_ok)]
+        wrong = named + [t for t in trends if _trend_condition(t) not in case.trends_ok]
         row.update(found=None, wrong=wrong, ok_effect=not wrong, ok_param=None)
         row["ok"] = row["ok_effect"] and row["ok_rmse"]
     else:  # out_of_library
         row.update(found=None, wrong=named, ok_effect=not named, ok_param=None)
         row["ok"] = row["ok_effect"] and flagged and row["ok_rmse"]
     return row
+
+
+def _trend_condition(step: str) -> str | None:
+    """The condition of a trend step's name: ``trends~<condition>`` (every parameter at once) or
+    ``<effect>.<parameter>~<condition>`` (one parameter, offered where the training data hold too few levels of
+    the condition for the joint step); None for a step of another kind (a start state)."""
+    head, sep, cond = step.rpartition("~")
+    return cond if sep and (head == "trends" or "." in head) else None
 
 
 def run_case(case: Case, options: dict | None = None) -> dict:
