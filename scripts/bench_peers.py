@@ -167,7 +167,7 @@ def run(quick: bool) -> dict:
     from hybridhyst.physics.compositions import boucwen_benchmark
 
     torch.set_default_dtype(torch.float64)
-    T, repeats, B_list = (512, 3, [1]) if quick else (8192, 5, [1, 16])
+    T, repeats, B_list = (128, 2, [1]) if quick else (8192, 5, [1, 16])
     out = {"T": T, "fs_hz": FS, "rows": [], "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
            "cpu_cores": os.cpu_count(), "torch": torch.__version__}
     model = boucwen_benchmark().double()
