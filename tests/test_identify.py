@@ -387,6 +387,33 @@ def test_a_declared_value_far_from_the_data_is_followed_out_of_its_box(float64):
     assert followed.recentred >= 1 and not followed.at_bounds
     assert followed.rmse < 1.05 * 0.5 and followed.x["spring.k"] == pytest.approx(600.0, rel=0.01)
     assert followed.evaluations > plain.evaluations and followed.wall_s > 0
+    assert len(followed.history["search"]) == len(plain.history["search"]) + followed.recentred  # one generation each
     vanishing = identify(model(600.0, Fc=5.0), records, recentre=5, **opts)
     assert vanishing.rmse < 1.05 * 0.5 and 1 <= vanishing.recentred < 5
     assert vanishing.x["coulomb.Fc"] < 0.1
+    # a box the user gave is theirs: its edge is reported, not followed (nothing more is simulated)
+    bounded = identify(model(10.0), records, recentre=3, bounds={"spring.k": (1.0, 100.0)}, **opts)
+    assert bounded.recentred == 0 and bounded.at_bounds == {"spring.k": "upper"}
+    assert bounded.evaluations == identify(model(10.0), records, bounds={"spring.k": (1.0, 100.0)}, **opts).evaluations
+    # a one-shot iterable of records serves every pass
+    assert identify(model(10.0), iter(records), recentre=3, **opts).recentred == followed.recentred
+
+
+def test_a_re_centred_pass_that_finds_nothing_better_leaves_the_model_at_the_fit_before_it(float64, monkeypatch):
+    """The passes after the first fit keep the model only when they lower the cost: a pass that cannot (here one
+    without a refinement, its 8 samples about the edge worse than the fit) is undone, the model's values are the
+    result's, and the time it cost is counted."""
+    import sys
+
+    ident = sys.modules["hybridhyst.identify.identify"]  # the module (the package exports its function by that name)
+    monkeypatch.setitem(ident.RECENTRED, "refine", "none")
+    monkeypatch.setitem(ident.RECENTRED, "pop", 2)
+    records = _sine_damper_records(600.0, 40.0)
+    model = Constitutive({"spring": EFFECTS["linear_stiffness"](k=10.0), "viscous": Viscous(c=30.0)},
+                         units={"x": "mm", "F": "N", "t": "s"}).double()
+    opts = {"progress": False, "fisher": False, "seed": 0}
+    first = identify(Constitutive({"spring": EFFECTS["linear_stiffness"](k=10.0), "viscous": Viscous(c=30.0)},
+                                  units={"x": "mm", "F": "N", "t": "s"}).double(), records, **opts)
+    res = identify(model, records, recentre=1, **opts)
+    assert res.recentred == 0 and res.cost == first.cost and res.evaluations > first.evaluations
+    assert float(model.effects["spring"].params["k"].value) == pytest.approx(res.x["spring.k"], rel=1e-12)

@@ -87,7 +87,7 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     if first.get("at_bounds") and first.get("recentred", 0) >= first.get("recentre", 0) > 0:
         # the re-centring ran to its cap with values still at an edge: the declared values are far off
         lines.append("  the nominal's first fit: " + edge_line(
-            first["at_bounds"], "discover.identify_options={recentre: N, bounds: ...}"))
+            first["at_bounds"], "discover.identify.recentre=N, discover.identify.bounds={name: [low, high]}"))
     if report.get("stopped") == "max_steps":
         n = report.get("settings", {}).get("max_steps")
         lines.append(f"  stopped at the cap on effects added (discover.max_steps={n}), not by the acceptance rule: "

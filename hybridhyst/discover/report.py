@@ -201,9 +201,10 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
     first = b.get("first_fit") or {}
     if first.get("recentred") or first.get("at_bounds"):
         edges = ", ".join(f"`{n}` ({side})" for n, side in first.get("at_bounds", {}).items())
-        lines += ["", f"The nominal's first fit searched again around values at the edge of its search box "
-                  f"{first.get('recentred', 0)} time(s) (`identify`'s `recentre`)"
-                  + (f"; still at an edge of the box: {edges}." if edges else ".")]
+        moved = (f"searched again around values at the edge of its search box {first['recentred']} time(s) "
+                 "(`identify`'s `recentre`)" if first.get("recentred") else "")
+        held = f"left at an edge of its search box: {edges}" if edges else ""
+        lines += ["", "The nominal's first fit " + "; ".join(t for t in (moved, held) if t) + "."]
     if b["per_condition"]:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
         lines += [f"| {k} | {_fmt(v)} | {_fmt(a['per_condition'].get(k))} |" for k, v in b["per_condition"].items()]

@@ -43,7 +43,8 @@ class IdentificationResult:
     fisher : identifiability analysis (None when skipped); identifiable : its identifiable combinations;
     uncertainty : standard deviation of each coordinate ``{name: sd}``.
     history : ``{"search": best cost per search generation, "refine": the refinement's cost per step}``; with
-    ``resolve``, the searches and refinements at finer steps are appended in the order they ran.
+    ``resolve``, the searches and refinements at finer steps are appended in the order they ran, and with
+    ``recentre`` those of the re-centred passes.
     wall_s : wall time [s]; evaluations : simulated population rows (× records); search : method name.
     at_bounds : ``{name: "lower" | "upper"}``, coordinates that ended at an edge of the search box (within
     0.1 % of its width, on the log scale where it searches one): the box, not the data, set them.
@@ -100,9 +101,12 @@ def _global(problem, method, pop, generations, seed, target, progress, init=None
     raise ValueError(f"unknown search {method!r}; choose 'de', 'cma', 'mc' or 'grid'")
 
 
-def _local(problem, mode, found, opts, target, progress):
-    """Refine the best finite members of a search in one batch; returns (result or None, rows simulated)."""
+def _local(problem, mode, found, opts, target, progress, also=None):
+    """Refine the best finite members of a search in one batch (and the rows ``also``); returns (result or None,
+    rows simulated)."""
     starts = found.population[torch.isfinite(found.costs)][: max(1, int(opts["restarts"]))]
+    if also is not None:
+        starts = torch.cat([also.to(starts), starts])
     if mode == "none" or len(starts) == 0:
         return None, 0
     R = len(problem.records)
@@ -116,11 +120,12 @@ def _local(problem, mode, found, opts, target, progress):
     return ref, ref.evaluations * len(starts) * R
 
 
-def _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mode, opts, progress):
+def _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mode, opts, progress, init=None):
     """Global search (on ``coarse``, the decimated problem) then batched refinement (on ``problem``),
-    repeated (search resumed with the refined points) until the target is met or ``rounds`` are done.
-    Returns (x, cost, history, rows simulated)."""
-    x, cost, evals, init = None, math.inf, 0, None
+    repeated (search resumed with the refined points) until the target is met or ``rounds`` are done; the first
+    search starts at ``init``'s rows (default the box centre), which its refinement starts from too. Returns (x,
+    cost, history, rows simulated)."""
+    x, cost, evals = None, math.inf, 0
     history: dict[str, list[float]] = {"search": [], "refine": []}
     for k in range(max(1, int(rounds))):
         found = _global(coarse, method, pop, generations, seed + k, target, progress, init)
@@ -132,7 +137,7 @@ def _rounds(problem, coarse, method, pop, generations, rounds, seed, target, mod
             found.cost = found_cost if math.isfinite(found_cost) else math.inf
         if x is None or found.cost < cost:
             x, cost = found.x, found.cost
-        ref, n = _local(problem, mode, found, opts, target, progress)
+        ref, n = _local(problem, mode, found, opts, target, progress, init if k == 0 else None)
         evals += n
         if ref is not None:
             history["refine"] += ref.history
@@ -178,48 +183,68 @@ def identify(model: nn.Module, records, settings: IdentifySettings | None = None
         When the best fit is not finite, naming the parameters whose values drove the divergence.
     """
     settings = (settings or IdentifySettings()).replace(**options)
+    records = _records(records)  # a list: the re-centred passes read the records again
     with intra_op_threads(settings.torch_threads):
         result = _identify(model, records, settings)
-        for k in range(int(settings.recentre)):
-            target = settings.target or ((1.01 * settings.noise_sd) ** 2 if settings.noise_sd else None)
-            if (target is not None and result.cost <= target) or not _box_moves(model, records, settings,
-                                                                                 result.at_bounds):
-                break
-            kept = copy.deepcopy(model.state_dict())
-            # the first search found the basin and the box stopped it: a short search about the values found (the
-            # box's centre) and the refinement follow it (a whole search again costs as much and finds the same)
-            again = _identify(model, records, settings.replace(seed=settings.seed + 1000 * (k + 1), **RECENTRED))
-            again.wall_s += result.wall_s
-            again.evaluations += result.evaluations
-            again.history = {key: result.history.get(key, []) + again.history.get(key, [])
-                             for key in dict.fromkeys([*result.history, *again.history])}
-            gain = again.cost < RECENTRE_GAIN * result.cost
-            if again.cost < result.cost:
-                again.recentred = k + 1
-                result = again
-            else:  # the search around the edge found nothing better: the fit before it, with the time it cost
-                model.load_state_dict(kept)
-                result.wall_s, result.evaluations, result.history = again.wall_s, again.evaluations, again.history
-            if not gain:  # an edge that only a vanishing parameter presses on: following it gains nothing
-                break
-        return result
+        return _recentred(model, records, settings, result) if int(settings.recentre) else result
 
 
-RECENTRE_GAIN = 0.99  # a search around an edge that lowers the cost by less than 1 % ends the re-centring
-RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search in a re-centred box
+RECENTRE_GAIN = 0.99  # a pass that lowers the cost by less than 1 % ends the re-centring
+RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search of a re-centred pass
 
 
-def _box_moves(model, records, settings: IdentifySettings, edges: dict[str, str]) -> bool:
-    """Whether some coordinate at an edge (``edges``) that the user gave no bounds for lies inside the default box
-    centred on the model's values now: a search there can follow it (a domain's own limit, such as a share's 1,
-    stays an edge of every box)."""
-    edges = [n for n in edges if n not in settings.bounds]
-    if not edges:
-        return False
-    now = SearchSpace(model, settings.bounds, factor=settings.box_factor,
-                      condition_ranges=condition_ranges(_records(records)))
-    still = at_bounds(now, now.initial())
-    return any(n in now.names and n not in still for n in edges)
+def _recentred(model, records, o: IdentifySettings, result: IdentificationResult) -> IdentificationResult:
+    """Up to ``o.recentre`` passes after the first fit ``result``: while constants (a trend's coefficients keep
+    their own rule) end at an edge of a default box the user set no bounds for, the search again, started at the
+    values found, with the constants' default boxes centred on them and the user's and the trends' boxes as they
+    were (a short search, and the refinement from its best and from the values found: the first search found the
+    basin, the box stopped it). A pass is kept if it lowers the cost; the passes end at the target, at a pass
+    that lowers it by less than 1 % or fails, or where no box can move (a domain's own limit, such as a share's
+    1, is an edge of every box)."""
+    ranges = condition_ranges(records)
+    space = SearchSpace(model, o.bounds, factor=o.box_factor, condition_ranges=ranges)
+    boxes = {c.name: (c.lower, c.upper) for c in space.coordinates}
+    constants = {c.name for c in space.coordinates if c.name == f"{c.effect}.{c.param}"}
+    target = o.target if o.target is not None else ((1.01 * o.noise_sd) ** 2 if o.noise_sd else None)
+    last = None  # the settings of the last pass kept
+    for k in range(int(o.recentre)):
+        if target is not None and result.cost <= target:
+            break
+        follow = [n for n in result.at_bounds if n in constants and n not in o.bounds]
+        # every constant's box about its value now (one at an edge often drags another near its own: a stiffness
+        # and a cubic term), the user's and the trends' boxes as they were
+        held = {n: b for n, b in boxes.items() if n not in constants or n in o.bounds}
+        space = SearchSpace(model, held, factor=o.box_factor, condition_ranges=ranges)
+        if not any(n not in at_bounds(space, space.initial()) for n in follow):
+            break
+        step = o.replace(bounds=held, seed=o.seed + 1000 * (k + 1), fisher=False,
+                         simulation=o.simulation.at(result.substeps), **RECENTRED)
+        kept = copy.deepcopy(model.state_dict())
+        try:
+            again = _identify(model, records, step, from_values=True)
+        except ValueError:  # every member of the pass diverged: the fit before it stands
+            model.load_state_dict(kept)
+            break
+        again.wall_s += result.wall_s
+        again.evaluations += result.evaluations
+        again.history = {key: result.history.get(key, []) + again.history.get(key, [])
+                         for key in dict.fromkeys([*result.history, *again.history])}
+        gain = again.cost < RECENTRE_GAIN * result.cost
+        if again.cost < result.cost:
+            again.recentred = k + 1
+            result, last = again, step
+            boxes = {c.name: (c.lower, c.upper) for c in space.coordinates}
+        else:  # nothing better around the edge: the fit before it, with the time the pass cost
+            model.load_state_dict(kept)
+            result.wall_s, result.evaluations, result.history = again.wall_s, again.evaluations, again.history
+        if not gain:
+            break
+    if last is not None and o.fisher:  # the identifiability analysis once, at the point kept
+        space = SearchSpace(model, last.bounds, factor=o.box_factor, condition_ranges=ranges)
+        problem = _problem(space, records, o.input_channels, o.simulation.at(result.substeps))
+        report = _fisher(problem, space.initial(), result.cost, o.noise_sd, o.jacobian)
+        result.fisher, result.identifiable, result.uncertainty = report, report.identifiable, report.sd
+    return result
 
 
 def _problem(space, records, input_channels, sim: SimulationSettings, decimate: int = 1) -> RecordsProblem:
@@ -229,7 +254,9 @@ def _problem(space, records, input_channels, sim: SimulationSettings, decimate: 
     return RecordsProblem(space, records, input_channels, sim)
 
 
-def _identify(model, records, o: IdentifySettings) -> IdentificationResult:
+def _identify(model, records, o: IdentifySettings, from_values: bool = False) -> IdentificationResult:
+    """One identification (``identify`` without the re-centring); ``from_values``: the search starts at the
+    model's values rather than at the box centre (they differ on a signed coordinate's box)."""
     start = time.perf_counter()
     records = _records(records)
     space = SearchSpace(model, o.bounds, factor=o.box_factor, condition_ranges=condition_ranges(records))
@@ -244,7 +271,8 @@ def _identify(model, records, o: IdentifySettings) -> IdentificationResult:
     opts = {"restarts": o.restarts, "lm_steps": o.lm_steps, "adam_steps": o.adam_steps,
             "lbfgs_steps": o.lbfgs_steps, "lr": o.lr}
     search = (o.search, o.pop, o.generations, o.rounds)
-    x, cost, history, evals = _rounds(problem, coarse, *search, o.seed, target, mode, opts, o.progress)
+    x, cost, history, evals = _rounds(problem, coarse, *search, o.seed, target, mode, opts, o.progress,
+                                      space.initial()[None] if from_values else None)
 
     state = {"problem": problem, "x": x, "cost": cost, "evals": evals}
 

@@ -49,12 +49,14 @@ class IdentifySettings:
         per sample (from ``simulation.substeps`` up to ``max_substeps``) at which halving the step changes the
         response by at most 0.1 %; where more, the refinement goes on at the finer step and the search runs again
         there (the coarse fit's basin is the integrator's error's); the better of the two is kept.
-    recentre : when coordinates end at an edge of the default search box (``IdentificationResult.at_bounds``;
-        not those the user gave ``bounds`` for), search again in the box centred on the values found (a short
-        search, one generation of 8, and the refinement from its best: the first search found the basin, the box
-        stopped it), up to ``recentre`` times, while that lowers the cost by 1 % or more: a declared value more
-        than ``box_factor`` from the data's optimum is followed there (the result keeps the better fit and says
-        how many times, ``recentred``). 0 (default): the edge is reported only.
+    recentre : when constants end at an edge of their default search box (``IdentificationResult.at_bounds``;
+        not those the user gave ``bounds`` for; a trend's coefficients keep their own rule), search again,
+        started at the values found, with those boxes centred on them and every other box as it was (a short
+        search, one generation of 8, and the refinement: the first search found the basin, the box stopped it),
+        up to ``recentre`` times: a declared value more than ``box_factor`` from the data's optimum is followed
+        there. A pass is kept if it lowers the cost (``recentred`` counts them); the passes end at the target, at
+        a pass that lowers the cost by less than 1 % or fails, or where no box can move (a domain's own limit).
+        0 (default): the edge is reported only.
     torch_threads : torch intra-op threads during the run (restored after; None leaves them). The compiled
         simulator already runs rows in parallel; torch's threads competing with it made identification of the
         seed 001 loop about 5x slower on a 2-core machine.
