@@ -203,4 +203,5 @@ def test_a_nominal_declared_far_from_the_data_is_followed_out_of_its_box_and_the
     held = {**res.report, "before": {**res.report["before"],
                                      "first_fit": {**first, "recentred": 3, "at_bounds": {"spring.k": "upper"}}}}
     assert any("spring.k (upper edge)" in line for line in summary_lines(held, "N", "run"))
-    assert "still at an edge of the box: `spring.k` (upper)" in report_markdown(replace(res, report=held), "t", "N")
+    text = report_markdown(replace(res, report=held), "t", "N")
+    assert "left values at an edge of its search box: `spring.k` (upper)" in text

@@ -203,7 +203,7 @@ def report_markdown(result: DiscoveryResult, title: str, unit: str) -> str:
         edges = ", ".join(f"`{n}` ({side})" for n, side in first.get("at_bounds", {}).items())
         moved = (f"searched again around values at the edge of its search box {first['recentred']} time(s) "
                  "(`identify`'s `recentre`)" if first.get("recentred") else "")
-        held = f"left at an edge of its search box: {edges}" if edges else ""
+        held = f"left values at an edge of its search box: {edges}" if edges else ""
         lines += ["", "The nominal's first fit " + "; ".join(t for t in (moved, held) if t) + "."]
     if b["per_condition"]:
         lines += ["", f"Held-out conditions (RMSE [{unit}]):", "", "| condition | before | after |", "|---|---|---|"]
