@@ -387,6 +387,9 @@ def test_a_declared_value_far_from_the_data_is_followed_out_of_its_box(float64):
     assert followed.recentred >= 1 and not followed.at_bounds
     assert followed.rmse < 1.05 * 0.5 and followed.x["spring.k"] == pytest.approx(600.0, rel=0.01)
     assert followed.evaluations > plain.evaluations and followed.wall_s > 0
+    # the identifiability analysis at the point kept (the passes skip it): a standard deviation of k at 600
+    analysed = identify(model(10.0), records, recentre=3, progress=False, seed=0, noise_sd=0.5)
+    assert analysed.recentred >= 1 and 0 < analysed.uncertainty["spring.k"] < 0.01 * analysed.x["spring.k"]
     assert len(followed.history["search"]) == len(plain.history["search"]) + followed.recentred  # one generation each
     vanishing = identify(model(600.0, Fc=5.0), records, recentre=5, **opts)
     assert vanishing.rmse < 1.05 * 0.5 and 1 <= vanishing.recentred < 5

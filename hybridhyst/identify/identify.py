@@ -189,6 +189,17 @@ def identify(model: nn.Module, records, settings: IdentifySettings | None = None
         return _recentred(model, records, settings, result) if int(settings.recentre) else result
 
 
+def _target(o: IdentifySettings) -> float | None:
+    """The cost the search stops at: ``target``, else (1.01 ``noise_sd``)² where a noise level is given."""
+    if o.target is not None:
+        return o.target
+    return (1.01 * o.noise_sd) ** 2 if o.noise_sd else None
+
+
+def _boxes(space) -> dict[str, tuple[float, float]]:
+    return {c.name: (c.lower, c.upper) for c in space.coordinates}
+
+
 RECENTRE_GAIN = 0.99  # a pass that lowers the cost by less than 1 % ends the re-centring
 RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search of a re-centred pass
 
@@ -203,9 +214,9 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
     1, is an edge of every box)."""
     ranges = condition_ranges(records)
     space = SearchSpace(model, o.bounds, factor=o.box_factor, condition_ranges=ranges)
-    boxes = {c.name: (c.lower, c.upper) for c in space.coordinates}
+    boxes = _boxes(space)
     constants = {c.name for c in space.coordinates if c.name == f"{c.effect}.{c.param}"}
-    target = o.target if o.target is not None else ((1.01 * o.noise_sd) ** 2 if o.noise_sd else None)
+    target = _target(o)
     last = None  # the settings of the last pass kept
     for k in range(int(o.recentre)):
         if target is not None and result.cost <= target:
@@ -233,7 +244,7 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
         if again.cost < result.cost:
             again.recentred = k + 1
             result, last = again, step
-            boxes = {c.name: (c.lower, c.upper) for c in space.coordinates}
+            boxes = _boxes(space)
         else:  # nothing better around the edge: the fit before it, with the time the pass cost
             model.load_state_dict(kept)
             result.wall_s, result.evaluations, result.history = again.wall_s, again.evaluations, again.history
@@ -264,9 +275,7 @@ def _identify(model, records, o: IdentifySettings, from_values: bool = False) ->
     problem = _problem(space, records, channels, sim)
     decimate = int(o.search_decimate)
     coarse = _problem(space, records, channels, sim, decimate) if decimate != 1 else problem
-    target = o.target
-    if target is None and o.noise_sd:
-        target = (1.01 * o.noise_sd) ** 2
+    target = _target(o)
     mode = {True: "lm", False: "none", None: "none"}.get(o.refine, o.refine)
     opts = {"restarts": o.restarts, "lm_steps": o.lm_steps, "adam_steps": o.adam_steps,
             "lbfgs_steps": o.lbfgs_steps, "lr": o.lr}
