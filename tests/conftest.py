@@ -1,4 +1,5 @@
 import os
+from pathlib import Path
 
 import pytest
 import torch
@@ -7,6 +8,9 @@ import torch
 # each other's (the apps, identify and discover set one thread each themselves; hybridhyst.settings).
 torch.set_num_threads(1)
 os.environ.setdefault("HYBRIDHYST_FAST_THREADS", "1")  # the compiled loops' row threads likewise
+# the apps the tests start as subprocesses import this checkout, installed or not (and not another install)
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    p for p in (str(Path(__file__).resolve().parents[1]), os.environ.get("PYTHONPATH", "")) if p)
 
 
 @pytest.fixture

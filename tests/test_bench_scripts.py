@@ -23,7 +23,7 @@ SCRIPTS = ROOT / "scripts"
 def _run(script: str, tmp_path: Path, *extra: str) -> tuple[dict, str]:
     """The script's ``--quick`` run: its JSON and its standard output."""
     out = tmp_path / "bench.json"
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env = dict(os.environ)  # PYTHONPATH names this checkout (conftest.py)
     done = subprocess.run([sys.executable, str(SCRIPTS / script), "--quick", "--json", str(out), *extra],
                           cwd=ROOT, env=env, check=True, capture_output=True, text=True, timeout=1200)
     return json.loads(out.read_text()), done.stdout

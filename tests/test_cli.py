@@ -33,7 +33,7 @@ def _compose(name: str, tmp_path: Path, overrides: list[str]):
 
 
 def _cli(module: str, tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    env = dict(os.environ)  # PYTHONPATH names this checkout (conftest.py)
     env.pop("HYBRIDHYST_TRACEBACK", None)
     cmd = [sys.executable, "-m", module, f"hydra.run.dir={tmp_path}", "progress=false", *overrides]
     return subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)

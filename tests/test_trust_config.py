@@ -229,7 +229,7 @@ def test_an_app_inside_another_apps_run_is_not_checked_against_its_command_line(
 
 # -- the entry points, end to end (a subprocess each: ~5 s of imports) -------------------------------------------------
 def _cli(app: str, tmp_path: Path, *overrides: str) -> str:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    env = dict(os.environ)  # PYTHONPATH names this checkout (conftest.py)
     env.pop("HYBRIDHYST_TRACEBACK", None)
     cmd = [sys.executable, "-m", f"hybridhyst.cli.{app}", f"hydra.run.dir={tmp_path}", "progress=false", *overrides]
     proc = subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
