@@ -438,6 +438,10 @@ def test_the_travel_before_each_record_is_the_input_travel_of_those_before_it():
     warm = [Record(name="w", t=t, x=np.array([0.0, 1.0, 0.0, 2.0, 0.0]), y=np.zeros(5), warmup=2),
             Record(name="z", t=t, x=np.zeros(5), y=np.zeros(5))]
     assert [r.conditions["travel_before"] for r in with_travel_before(warm)] == [-2.0, 4.0]
+    # a slice (a training window, a record cut short) starts where the travel before its first sample left it
+    w = with_travel_before(warm)[0]
+    assert w.slice(3).conditions["travel_before"] == -2.0 + 4.0 and w.slice(step=2).conditions == w.conditions
+    assert w.slice(1, 4).conditions["travel_before"] == -1.0 and w.slice(0).conditions["travel_before"] == -2.0
 
 
 def test_a_carried_drift_offers_no_shared_start_state_and_can_be_swapped_out():

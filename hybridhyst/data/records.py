@@ -189,13 +189,21 @@ class Record:
 
     def slice(self, start: int | None = None, stop: int | None = None, name: str | None = None,
               step: int | None = None) -> Record:
-        """Samples ``start:stop:step`` as a new record (same conditions and units)."""
+        """Samples ``start:stop:step`` as a new record (same conditions and units; a ``travel_before`` condition,
+        the input's travel before the record, grows by the travel of the samples left out before the slice)."""
         sl = slice(start, stop, step)
         first, _, stride = sl.indices(len(self))
+        if stride < 1:
+            raise ValueError(f"record {self.name!r}: a slice keeps the samples in time order (step >= 1), "
+                             f"got step {stride}")
         warmup = max(0, -(-(self.warmup - first) // stride))  # warm-up samples kept in the slice
+        conditions = self.conditions
+        if TRAVEL_BEFORE in conditions and first > 0:  # (with_travel_before): the history of the slice's start
+            conditions = {**conditions, TRAVEL_BEFORE: float(conditions[TRAVEL_BEFORE])
+                          + float(np.abs(np.diff(self.x[: first + 1])).sum())}
         t = self.t[sl]
         return Record(
-            name=name or self.name, t=t, x=self.x[sl], y=self.y[sl], conditions=self.conditions,
+            name=name or self.name, t=t, x=self.x[sl], y=self.y[sl], conditions=conditions,
             units=self.units, extra={k: v[sl] for k, v in self.extra.items()}, source=self.source,
             warmup=min(warmup, max(len(t) - 1, 0)), controls={k: v[sl] for k, v in self.controls.items()},
         )
