@@ -1,4 +1,5 @@
-"""Input operators and structure modifiers: backlash (the play operator), inertia and a time delay."""
+"""Input operators and structure modifiers: backlash (the play operator) and its relaxing follower, inertia and a
+time delay."""
 
 from __future__ import annotations
 
@@ -9,9 +10,19 @@ import pytest
 import torch
 from test_effects import respond, sine
 
-from hybridhyst.physics.effects import Backlash, Coulomb, Dahl, Inertia, LinearStiffness, TimeDelay, Viscous
+from hybridhyst.physics.effects import (
+    Backlash,
+    Coulomb,
+    Dahl,
+    Inertia,
+    LinearStiffness,
+    RelaxingBacklash,
+    TimeDelay,
+    Viscous,
+)
 from hybridhyst.physics.models import Constitutive, DrivenOscillator
 from hybridhyst.simulate import simulate
+from hybridhyst.testbed.generators import kelvin_behind_play
 
 pytestmark = pytest.mark.usefixtures("float64")  # conftest: float64 default dtype, restored afterwards
 
@@ -83,6 +94,35 @@ def test_backlash_coulomb_shows_dead_band_after_reversal():
         assert float(F[inside].abs().max()) < 0.01  # no friction in the dead band
         assert torch.allclose(F[outside], torch.full_like(F[outside], sgn), atol=0.01)
         assert torch.allclose(F_direct[inside], torch.full_like(F_direct[inside], sgn), atol=0.01)
+
+
+@pytest.mark.parametrize("backend", ["fast", "reference"])
+def test_a_spring_dashpot_behind_a_relaxing_play_is_the_pin_linkage(backend):
+    """A spring k and a dashpot c behind the relaxing play with λ = k / c are the pin linkage of the test bed's
+    own generator (exact exponential creep of the free piston, projection onto the contact; no library code): no
+    force while the pin is free, the same loop where it pushes. ``backlash`` (the piston held) is not."""
+    k, c, r, dt = 2.0, 0.25, 0.15, 1e-3
+    t, x = sine(1.0, 1.0, 1.5, dt)
+    x = -torch.cos(2 * math.pi * t)  # from rest at -1, as a displacement rig starts
+    v = 2 * math.pi * torch.sin(2 * math.pi * t)
+    exact = kelvin_behind_play(t.numpy(), x.numpy(), v.numpy(), r, k, c)  # the piston at rest, z0 = 0
+
+    def loop(play):
+        model = Constitutive({"play": play, "spring": LinearStiffness(k=k), "viscous": Viscous(c=c)})
+        return respond(model, torch.stack([x, v], -1)[None], t=t, backend=backend)[0].numpy()
+
+    # the piston at rest with the pin pressed against it from below: the gap closed at -r
+    F = loop(RelaxingBacklash(r=r, lam=k / c, d0=-r))
+    free = exact == 0.0
+    assert free.mean() > 0.1 and np.abs(F[free]).max() < 0.02 * np.abs(exact).max()
+    # a contact starts within a step of the exact one: the force jumps there by c times the relative speed
+    assert np.sqrt(np.mean((F - exact) ** 2)) < 0.02 * np.abs(exact).max()
+    held = loop(Backlash(r=r, d0=-r))
+    assert np.sqrt(np.mean((held - exact) ** 2)) > 0.1 * np.abs(exact).max()
+    # λ = 0 is backlash, r = 0 the identity
+    assert np.allclose(loop(RelaxingBacklash(r=r, lam=0.0, d0=-r)), held, atol=1e-12)
+    direct = respond(Constitutive([LinearStiffness(k=k), Viscous(c=c)]), torch.stack([x, v], -1)[None], t=t)[0]
+    assert np.allclose(loop(RelaxingBacklash(r=0.0, lam=k / c)), direct.numpy(), atol=1e-12)
 
 
 def test_inertia_constitutive_gives_mass_times_acceleration():

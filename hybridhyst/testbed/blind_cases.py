@@ -35,7 +35,7 @@ __all__ = ["BEDS", "BLIND_CASES", "BLIND_CASE_BY_NAME", "FAMILIES", "bed_cases",
 HYSTERETIC = frozenset({"dahl", "lugre", "bouc_wen", "bouc_wen_normalised"})
 # effect word -> the library effects that name it (None: the library has no such family)
 FAMILIES: dict[str, frozenset[str] | None] = {
-    "play": frozenset({"backlash", "clearance"}),
+    "play": frozenset({"backlash", "relaxing_backlash", "clearance"}),
     "stribeck": frozenset({"stribeck"}),
     "travel_friction": frozenset({"travel_drift"}),
     "relaxation": frozenset({"maxwell"}),

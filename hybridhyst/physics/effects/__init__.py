@@ -22,6 +22,7 @@ from .linear_stiffness import LinearStiffness as LinearStiffness
 from .lugre import LuGre as LuGre
 from .maxwell import Maxwell as Maxwell
 from .neural import NeuralEffect as NeuralEffect
+from .relaxing_backlash import RelaxingBacklash as RelaxingBacklash
 from .spencer import SpencerMR as SpencerMR
 from .stribeck import Stribeck as Stribeck
 from .time_delay import TimeDelay as TimeDelay
@@ -45,6 +46,7 @@ EFFECTS: dict[str, type[Effect]] = {
         LuGre,
         Maxwell,
         Backlash,
+        RelaxingBacklash,
         Clearance,
         Inertia,
         Attenuation,

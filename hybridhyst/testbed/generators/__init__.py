@@ -35,6 +35,7 @@ from .path_operators import (
     clearance_dahl,
     cumulative_travel,
     dahl_exact,
+    kelvin_behind_play,
     linear_lag,
     maxwell_force,
     play,
@@ -44,8 +45,8 @@ from .signals import Schedule, Sines, fine_grid, multisine, ramp, random_motion,
 from .static_laws import cogging, sgn, stribeck_curve
 
 __all__ = [
-    "Schedule", "Sines", "ar1_noise", "bouc_wen_n2", "bouc_wen_yield", "clearance_dahl", "cogging", "cumulative_travel",
-    "dahl_exact", "fine_grid", "heun", "integrate", "linear_lag", "lugre", "maxwell_force", "mr_damper", "multisine",
-    "oscillator", "play", "play_rate", "ramp", "random_motion", "sgn", "sine", "staircase", "stribeck_curve",
-    "white_noise",
+    "Schedule", "Sines", "ar1_noise", "bouc_wen_n2", "bouc_wen_yield", "clearance_dahl", "cogging",
+    "cumulative_travel", "dahl_exact", "fine_grid", "heun", "integrate", "kelvin_behind_play", "linear_lag", "lugre",
+    "maxwell_force", "mr_damper", "multisine", "oscillator", "play", "play_rate", "ramp", "random_motion", "sgn",
+    "sine", "staircase", "stribeck_curve", "white_noise",
 ]

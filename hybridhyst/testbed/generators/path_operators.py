@@ -1,7 +1,7 @@
 """Input operators and path-dependent states of the first bed, exact between consecutive points of a (refined)
 path: the play operator and its rate, Dahl friction, Bouc-Wen with n = 2, Dahl friction behind a clearance,
-cumulative travel; and the exact exponential integrator of a first-order lag (``linear_lag``) and of a Maxwell
-element."""
+cumulative travel; and the exact exponential integrator of a first-order lag (``linear_lag``), of a Maxwell
+element and of a spring-dashpot driven through a clearance."""
 
 from __future__ import annotations
 
@@ -185,3 +185,23 @@ def maxwell_force(t, v, stiffness: float, damping: float) -> np.ndarray:
     Ḟ = k_m v − (k_m / c_m) F, F(0) = 0, by the exact exponential integrator."""
     v = np.asarray(v, float)
     return linear_lag(t, stiffness * v, stiffness / damping)
+
+
+def kelvin_behind_play(t, x, v, r: float, stiffness: float, damping: float, z0: float = 0.0) -> np.ndarray:
+    """Force of a spring k parallel to a dashpot c (a massless piston z) driven through a pin with clearance ±r
+    along a (refined) input path x, v at times t: while |x − z| < r the pin is free, no force acts and the
+    piston creeps back, c ż + k z = 0, exactly z ← z e^(−(k/c) h) over a step h; where that leaves |x − z| ≥ r
+    the pin is in contact and pushes the piston, z = x ∓ r, F = k z + c ẋ. The piston starts at ``z0`` (at rest).
+    """
+    t, x, v = (np.asarray(a, float) for a in (t, x, v))
+    lam = stiffness / damping
+    z = float(z0)
+    force = np.zeros_like(x)
+    for i in range(len(x)):
+        if i:
+            z *= math.exp(-lam * (t[i] - t[i - 1]))
+        gap = x[i] - z
+        if abs(gap) >= r:
+            z = x[i] - math.copysign(r, gap)
+            force[i] = stiffness * z + damping * v[i]
+    return force
