@@ -51,15 +51,20 @@ def test_simulate_sine_writes_summary_and_predictions(tmp_path):
     assert (tmp_path / "config.yaml").exists()
 
 
-def test_simulate_on_bundled_records_reports_rmse(tmp_path):
-    cfg = _compose("simulate", tmp_path, [
-        "input.kind=data", "input.select={kind: characterisation, tension_lb: 36, frequency_hz: 2.0}",
-        "input.downsample=16", "model.sigma0=5.0", "progress=false",
-    ])
+def test_simulate_on_bundled_records_reports_rmse(tmp_path, capsys):
+    select = "input.select={kind: characterisation, tension_lb: 36, frequency_hz: 2.0}"
+    cfg = _compose("simulate", tmp_path, ["input.kind=data", select, "input.downsample=16", "model.sigma0=5.0",
+                                          "progress=false"])
     summary = simulate.run(cfg)
     (name, info), = summary["records"].items()
     assert name == "char_2Hz_36lb_0.5in" and info["samples"] == 225
     assert 0 < info["rmse"] < 10
+    # the terminal says what was simulated, each record's error in the data's unit, and where the results are
+    out = capsys.readouterr().out
+    assert f"{name}: 225 samples, RMSE {info['rmse']:.4g} kip" in out and "predictions.csv" in out
+    # every sample unless told otherwise (thinning interpolates a control between the samples kept)
+    every = simulate.run(_compose("simulate", tmp_path / "every", ["input.kind=data", select, "progress=false"]))
+    assert every["records"][name]["samples"] == 16 * 224 + 1
 
 
 def test_simulate_free_vibration_needs_an_oscillator(tmp_path):

@@ -183,3 +183,19 @@ def test_a_control_the_model_does_not_read_is_noted(tmp_path, capsys):
 
     fit.run(_compose("fit", tmp_path, "progress=false", "fit.steps=1", "fit.lbfgs_steps=0", "fit.start=model"))
     assert "carry the control channel(s) ['voltage']" in capsys.readouterr().out
+
+
+def test_a_control_a_network_reads_is_not_noted_as_unread():
+    """hybridhyst-train with ``datamodule.conditions=[voltage]``: the network reads the channel the nominal does
+    not, so no note says that nothing reads it."""
+    import numpy as np
+
+    from hybridhyst.data.records import Record
+    from hybridhyst.physics.build import build_model
+    from hybridhyst.training.config import check_model_data
+
+    t = np.linspace(0.0, 1.0, 11)
+    record = Record(name="r", t=t, x=t, y=t, units={"x": "m", "y": "N"}, controls={"voltage": t})
+    model = build_model("constitutive", {"viscous": {"effect": "viscous", "c": 1.0}})
+    assert "['voltage']" in check_model_data(model, [record])
+    assert "voltage" not in check_model_data(model, [record], read_elsewhere=["voltage"])

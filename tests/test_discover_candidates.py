@@ -205,3 +205,16 @@ def test_a_nominal_declared_far_from_the_data_is_followed_out_of_its_box_and_the
     assert any("spring.k (upper edge)" in line for line in summary_lines(held, "N", "run"))
     text = report_markdown(replace(res, report=held), "t", "N")
     assert "left values at an edge of its search box: `spring.k` (upper)" in text
+
+
+def test_the_terminal_names_structure_left_and_a_noise_estimate_a_coloured_residual_puts_in_doubt():
+    from hybridhyst.cli.discover import leftover_lines
+
+    coloured = {"unexplained": {"structure_flagged": True, "whiteness": {"lag_1": 0.8}},
+                "noise": {"sd": 0.53, "source": "estimated from the training responses' differences"}}
+    text = " ".join(leftover_lines(coloured))
+    assert "structure is left" in text and "sd 0.53" in text and "0.80" in text and "discover.noise_sd" in text
+    given = {**coloured, "noise": {"sd": 1.5, "source": "given"}}
+    assert "noise" not in " ".join(leftover_lines(given))
+    white = {"unexplained": {"structure_flagged": False, "whiteness": {"lag_1": 0.05}}, "noise": coloured["noise"]}
+    assert leftover_lines(white) == []

@@ -40,6 +40,30 @@ def test_a_structure_whose_sign_changes_with_the_condition_is_still_seen():
     assert d["dependence"]["phase"] > 0.5
 
 
+def test_a_residual_that_follows_a_control_channel_is_seen_by_the_diagnostics_and_the_leftover_network():
+    """An MR damper's yield level saturating with the coil current, where the model is linear in it: the residual
+    is a function of (current, sign ẋ), invisible in the motion's features; the diagnostics and the leftover
+    network read the records' control channels too."""
+    import dataclasses
+
+    from hybridhyst.discover.leftover import residual_network
+
+    rng = np.random.default_rng(3)
+    records, preds = [], []
+    for i, r in enumerate(make_records(None, noise_sd=NOISE).records):
+        current = 0.75 + 0.75 * np.sin(2 * np.pi * 0.37 * r.t + i)  # a slow current, another in every record
+        miss = 0.5 * (np.tanh(current / 0.4) - current / 1.5) * np.sign(features(r.t, r.x)["v"])
+        records.append(dataclasses.replace(r, controls={"current": current}, units={**r.units, "current": "A"}))
+        preds.append(r.y - miss - NOISE * rng.standard_normal(len(r)))
+    d = diagnose(records, preds, NOISE)
+    assert d["dependence"]["control:current"] > 0.2
+    half = len(records) // 2
+    net = residual_network(records[:half], preds[:half], records[half:], preds[half:], steps=300)
+    blind = residual_network([dataclasses.replace(r, controls={}) for r in records[:half]], preds[:half],
+                             [dataclasses.replace(r, controls={}) for r in records[half:]], preds[half:], steps=300)
+    assert net["explained_share"] > blind["explained_share"] + 0.2
+
+
 def test_a_residual_whose_size_grows_with_a_condition_is_named():
     """Zero-mean noise three times larger at the largest amplitude: its mean depends on nothing (η² ≈ 0), its
     size does, and the report's sentence names the condition with the RMS at both ends."""

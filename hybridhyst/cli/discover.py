@@ -105,9 +105,28 @@ def summary_lines(report: dict, unit: str, run_dir: Path | str, reuse: str | Non
     if report.get("refit"):
         lines.append("  (validation: the training-only fits; test and training: both refitted on training + "
                      "validation records)")
+    lines += [f"  {text}" for text in leftover_lines(report)]
     if reuse:
         lines.append(f"  the discovered model in another app: {reuse}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
+    return lines
+
+
+def leftover_lines(report: dict) -> list[str]:
+    """What the terminal says about the structure left: the flag (report.md's "What is left"), and where the noise
+    level was estimated while the final residual is coloured, that the estimate may be low."""
+    u = report.get("unexplained") or {}
+    lines = []
+    if u.get("structure_flagged"):
+        lines.append("structure is left that no library effect explains: see report.md's 'What is left' and "
+                     "residuals.png")
+    noise, lag = report.get("noise") or {}, (u.get("whiteness") or {}).get("lag_1")
+    if noise.get("source") != "given" and lag is not None and lag >= 0.3:
+        lines.append(f"the noise level (sd {float(noise.get('sd') or math.nan):.4g}) was estimated from "
+                     "sample-to-sample differences, which assumes white noise; the final residual's lag-1 "
+                     f"autocorrelation is {lag:.2f}: if the measurement noise is coloured, the estimate is low (the "
+                     "rule then takes differences within the noise for real ones): give the level as "
+                     "discover.noise_sd=...")
     return lines
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import hydra
 import numpy as np
@@ -103,7 +104,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)
-        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y), **resolution}
+        info[r.name] = {"samples": len(r), "rmse": rmse(y[:, 0], r.y), "unit": r.units.get("y"), **resolution}
     return frames, info
 
 
@@ -168,7 +169,25 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     write_json(run_dir / "summary.json", summary)
     mark_complete(run_dir, "simulate", ["config.yaml", "predictions.csv", "summary.json"])
+    say("\n".join(summary_lines(summary, run_dir)))
     return summary
+
+
+def summary_lines(summary: dict, run_dir) -> list[str]:
+    """The terminal summary: what was simulated, each record's RMSE against its measured response (data) or the
+    free vibration's frequency, and where the results are."""
+    records = summary["records"]
+    lines = [f"simulate: {summary['model']} on {summary['input']} input: {len(records)} record(s) "
+             f"({summary['wall_s']:.3g} s)"]
+    for name, info in records.items():
+        parts = [f"{info['samples']} samples"] if "samples" in info else []
+        parts += [f"RMSE {info['rmse']:.4g} {info.get('unit') or ''}".rstrip()] if info.get("rmse") is not None else []
+        parts += [f"frequency {info['frequency_hz']:.4g} Hz"] if info.get("frequency_hz") is not None else []
+        parts += ["diverged"] if info.get("diverged") else []
+        if parts:
+            lines.append(f"  {name}: {', '.join(parts)}")
+    lines.append(f"  results: {Path(run_dir) / 'predictions.csv'}, {Path(run_dir) / 'summary.json'}")
+    return lines
 
 
 @hydra.main(config_path=CONF_DIR, config_name="simulate", version_base="1.3")

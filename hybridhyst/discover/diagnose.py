@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-__all__ = ["FEATURES", "FEATURE_UNITS", "diagnose", "features", "structure_explained"]
+__all__ = ["FEATURES", "FEATURE_UNITS", "diagnose", "features", "shared_controls", "structure_explained"]
 
 FEATURES = ("x", "v", "sign_v", "since_reversal", "phase", "time", "travel")
 # each feature's unit as a template in the records' units (x: the excitation's, t: time's; physics render_unit)
@@ -30,6 +30,12 @@ def features(t: np.ndarray, x: np.ndarray) -> dict[str, np.ndarray]:
     phase = np.arctan2(v / (np.std(v) or 1.0), (x - x.mean()) / (np.std(x) or 1.0))
     travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(x)))])
     return {"x": x, "v": v, "sign_v": s, "since_reversal": since, "phase": phase, "time": t - t[0], "travel": travel}
+
+
+def shared_controls(records) -> list[str]:
+    """The control channels every record carries (``Record.controls``), in the first record's order."""
+    records = list(records)
+    return [c for c in (records[0].controls if records else {}) if all(c in r.controls for r in records)]
 
 
 def structure_explained(feature: np.ndarray, r: np.ndarray, bins: int = _BINS) -> float:
@@ -75,10 +81,13 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     ``{"rmse", "noise_sd", "whiteness": {"lag_1", "lag_5", "lag_20", "white"}, "dependence": {feature:
     η²}, "scale": {condition: {level: residual RMS}}, "where": {"phase_deg": centre of the phase bin with the
     largest mean |residual|, "share": that bin's share of the residual energy}}``; the features are those of
-    ``features`` plus every numeric condition (per record). ``white`` is true when the lag-1 autocorrelation is
-    below 0.3.
+    ``features`` plus every numeric condition (per record) and every control channel the records all carry
+    (``control:<name>``, per sample: a residual that follows a coil current the model reads wrongly). ``white`` is
+    true when the lag-1 autocorrelation is below 0.3.
     """
     r_all, feats = [], {k: [] for k in FEATURES}
+    for name in shared_controls(records):
+        feats[f"control:{name}"] = []
     conds: dict[str, list] = {}
     acs = []
     for rec, pred in zip(records, predictions):
@@ -86,6 +95,9 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
         r_all.append(r)
         for k, v in features(rec.t, rec.x).items():
             feats[k].append(v)
+        for k in feats:
+            if k.startswith("control:"):
+                feats[k].append(np.asarray(rec.controls[k[len("control:"):]], float))
         for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))

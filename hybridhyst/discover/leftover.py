@@ -2,8 +2,9 @@
 
 Two networks, one question ("is anything structured left that the library did not name?"):
 
-* ``residual_network`` (``leftover="static"``): a small MLP of (x, ẋ, sign ẋ, travel since reversal) fitted
-  to the residual, point by point. Cheap; it sees no memory beyond the travel since the last reversal.
+* ``residual_network`` (``leftover="static"``): a small MLP of (x, ẋ, sign ẋ, travel since reversal and the
+  records' control channels) fitted to the residual, point by point. Cheap; it sees no memory beyond the
+  travel since the last reversal.
 * ``neural_leftover`` (``leftover="dynamics"``): a ``NeuralEffect`` — a force with a latent state of its
   own — added *inside* the final model's equations, its weights fitted through the simulator with every
   physical parameter held; the augmented model is then simulated on the validation records. It can
@@ -48,16 +49,19 @@ def structure_flagged(network: dict, train_rmse: float, noise_sd: float | None) 
 
 
 def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 300, seed: int = 0) -> dict:
-    """How much of the remaining residual a small network of (x, ẋ, sign ẋ, travel since reversal) recovers:
+    """How much of the remaining residual a small network of (x, ẋ, sign ẋ, travel since reversal, the control
+    channels every record carries) recovers:
     the share of residual variance it explains on validation records (training records without them). An
     honest "is anything structured left" number, not a model."""
-    from .diagnose import features
+    from .diagnose import features, shared_controls
+
+    controls = shared_controls([*train, *(val or [])])  # what the records all carry: a coil current, a pressure
 
     def table(records, preds):
         X, R = [], []
         for rec, p in zip(records, preds):
             f = features(rec.t, rec.x)
-            cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"]]
+            cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"], *(rec.controls[c] for c in controls)]
             X.append(np.stack(cols, 1))
             R.append(np.asarray(rec.y) - p)
         return np.concatenate(X), np.concatenate(R)

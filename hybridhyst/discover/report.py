@@ -12,7 +12,7 @@ from ..files import atomic_write, write_json
 from ..physics.parameters import render_unit
 from ..report.figures import write_loops
 from ..report.markdown import model_reuse_sentence
-from .diagnose import FEATURE_UNITS, FEATURES, features
+from .diagnose import FEATURE_UNITS, FEATURES, features, shared_controls
 from .leftover import FLAG_SHARE
 from .loop import DiscoveryResult
 from .result import AFTER_ADDED, disagreement_line
@@ -78,12 +78,16 @@ def _pyplot():
 def residual_figure(result: DiscoveryResult, path: Path) -> Path:
     """Training residual (measured − model) against each feature, before (top) and after (bottom)."""
     plt = _pyplot()
-    names = [f for f in FEATURES if f != "sign_v"]
-    fig, axes = plt.subplots(2, len(names), figsize=(min(2.2 * len(names), 14), 4.6), dpi=90, squeeze=False)
     train = result.splits["train"]
+    controls = shared_controls(train)  # a panel per control channel: a residual that follows the coil current
+    names = [f for f in FEATURES if f != "sign_v"] + [f"control:{c}" for c in controls]
+    fig, axes = plt.subplots(2, len(names), figsize=(min(2.2 * len(names), 16), 4.6), dpi=90, squeeze=False)
     units = {"x": train[0].units.get("x") or "x", "t": train[0].units.get("t") or "s"} if train else None
+    labels = {**{f: render_unit(FEATURE_UNITS[f], units) for f in FEATURES},
+              **{f"control:{c}": train[0].units.get(c) or "-" for c in controls}}
     for row, stage in enumerate(("before", "after")):
-        feats = [features(r.t, r.x) for r in train]
+        feats = [{**features(r.t, r.x), **{f"control:{c}": np.asarray(r.controls[c], float) for c in controls}}
+                 for r in train]
         res = [np.asarray(r.y) - p for r, p in zip(train, result.predictions[stage]["train"])]
         for col, name in enumerate(names):
             ax = axes[row, col]
@@ -93,7 +97,7 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
             ax.plot(f[::step], r[::step], ".", ms=1.2, alpha=0.4, color="C0" if row == 0 else "C2")
             eta = result.report[stage]["diagnostics"]["dependence"].get(name, 0.0)
             ax.set_title(f"{name} (η²={eta:.2f})", fontsize=7)
-            ax.set_xlabel(f"{name} [{render_unit(FEATURE_UNITS[name], units)}]", fontsize=7)
+            ax.set_xlabel(f"{name} [{labels[name]}]", fontsize=7)
             ax.tick_params(labelsize=6)
             if col == 0:
                 unit = train[0].units.get("y") if train else None

@@ -47,7 +47,7 @@ def build_datamodule(cfg: DictConfig) -> RecordDataModule:
     model = []
     if cfg.get("module") in NOMINAL_MODULES:
         nominal = instantiate(cfg.model, _convert_="all")
-        note = check_model_data(nominal, parts, "model")
+        note = check_model_data(nominal, parts, "model", read_elsewhere=network)  # the network reads these
         if note:  # records without units: the model's are assumed
             print(note, flush=True)
         model = [c for c in conditions_used(nominal) if c not in network]

@@ -213,14 +213,15 @@ def load_records(cfg, select=None, where: str = "split.select"):
     return records
 
 
-def check_model_data(model, split, what: str = "model") -> str:
+def check_model_data(model, split, what: str = "model", read_elsewhere=()) -> str:
     """Every record of ``split`` (``Split`` or a record set) fits the model, else a one-line ``ValueError``: it has
     the conditions the model's parameter functions need (``physics.models.conditions_used``), as numbers, and the
     input and response units (``Record.units`` "x", "y") the model declares (``NominalModel.data_units``; nothing
     is converted), and a control channel's unit where both name one. Units the model leaves symbolic are not
     checked. Records that declare no unit for a channel are taken to be in the model's (written into
-    ``Record.units``, so reports label them): the returned notes say so, and name control channels the model does
-    not read, for the app to show ('' where there is nothing to say)."""
+    ``Record.units``, so reports label them): the returned notes say so, and name control channels that neither
+    the model nor anything else reads (``read_elsewhere``: a network's inputs, ``datamodule.conditions``), for the
+    app to show ('' where there is nothing to say)."""
     from ..data.splits import Split, check_conditions
     from ..physics.models import conditions_used
 
@@ -249,7 +250,7 @@ def check_model_data(model, split, what: str = "model") -> str:
     for record in records:  # filled only once every record has passed the check
         record.units.update({k: unit for k, unit in assumed.items() if record.units.get(k) is None})
     notes = []
-    unread = sorted({c for r in records for c in r.controls} - set(names))
+    unread = sorted({c for r in records for c in r.controls} - set(names) - set(read_elsewhere))
     if unread:
         notes.append(f"note: the records carry the control channel(s) {unread} (data.controls), which the {what} "
                      f"{model.name!r} does not read: no parameter function or effect names them "
