@@ -108,16 +108,6 @@ def clearance_law(k, c, r, sigma0, Fc_pos, Fc_neg, q0=0.0):
     return fine
 
 
-def linkage_law(r, k, c):
-    """A spring k parallel to a dashpot c driven through a pin with clearance ±r (no force while the pin is
-    free; the piston creeps back to rest meanwhile), exact per step on the refined path, the piston at rest."""
-
-    def fine(tf, sig):
-        return g.kelvin_behind_play(tf, sig.x(tf), sig.v(tf), r, k, c)
-
-    return fine
-
-
 def rough_law(k, c, Fc, depth, period, sign="arctan", width=0.01):
     """k x + c v + Fc (1 + depth cos(2π x / period)) sgn(v): a sliding level that varies along the stroke."""
 

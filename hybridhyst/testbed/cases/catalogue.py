@@ -11,7 +11,6 @@ from ..laws import (
     clearance_law,
     dahl_law,
     drift_law,
-    linkage_law,
     lugre_law,
     osc_law,
     p_const,
@@ -121,15 +120,6 @@ def _build_cases() -> list[Case]:
                                     seed=10, refine=20),
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2)}), STD_SPLIT,
               "exact play r 0.1 in, then 2y + 0.3ẏ; nominal spring + viscous", "200"))
-    # a force that jumps where the pin meets the piston (by c times the relative speed): the jump is kept small
-    # against the noise so that the held-out error measures the model, not on which side of a sample a jump falls
-    add(_case("linkage", "single", [{"relaxing_backlash"}],
-              [("relaxing_backlash.r", 0.1, 0.15), ("relaxing_backlash.lam", 2.0 / 0.1, 0.15)], 0.05,
-              lambda: _sine_records("linkage", STD, linkage_law(0.1, 2.0, 0.1), spc=200, cycles=1.5, noise=0.05,
-                                    phi=0.5, seed=11, refine=20),
-              lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.2)}), STD_SPLIT,
-              "2z + 0.1ż on a piston driven through a pin with clearance ±0.1 in (no force while free, the "
-              "piston creeping back: exact exponential); nominal spring + viscous", "200", "AR(1) 0.5"))
     add(_case("inertia", "single", [{"inertia"}], [("inertia.m", 0.006, 0.10)], 0.03,
               _inertia_records,
               lambda: _damper({"spring": _spring(1.5), "viscous": _visc(0.4)}),
