@@ -149,7 +149,7 @@ def effect_section(name: str, cls) -> str:
         notes.append("contains as special cases " + ", ".join(" + ".join(f"`{e}`" for e in case)
                                                           for case in cls.special_cases))
     if not cls.discovery_candidate:
-        notes.append("discovery does not offer it by name")
+        notes.append("discovery does not offer it by default")
     elif cls.needs_drive:
         notes.append("discovery offers it only to a `DrivenOscillator` (it reads the drive)")
     else:
