@@ -199,3 +199,23 @@ def test_a_control_a_network_reads_is_not_noted_as_unread():
     model = build_model("constitutive", {"viscous": {"effect": "viscous", "c": 1.0}})
     assert "['voltage']" in check_model_data(model, [record])
     assert "voltage" not in check_model_data(model, [record], read_elsewhere=["voltage"])
+
+
+def test_a_written_model_names_the_unit_of_a_control_it_reads(tmp_path):
+    """A trend in a control that discovery added (the nominal named no unit for it) is written with the records'
+    unit, so that the discovered model refuses data in another unit later."""
+    import numpy as np
+    import yaml
+
+    from hybridhyst.cli.common import write_model
+    from hybridhyst.data.records import Record
+    from hybridhyst.physics.build import build_model
+
+    model = build_model("constitutive", {"viscous": {"effect": "viscous",
+                                                      "c": {"kind": "linear", "condition": "current", "intercept": 1.0,
+                                                            "slope": 2.0}}})
+    t = np.linspace(0.0, 1.0, 11)
+    record = Record(name="r", t=t, x=t, y=t, units={"x": "mm", "y": "N", "current": "A"}, controls={"current": t})
+    write_model(tmp_path, model, "discovered", "discovered by a test", [record])
+    text = (tmp_path / "model" / "discovered.yaml").read_text()
+    assert yaml.safe_load(text)["units"]["current"] == "A"

@@ -68,17 +68,24 @@ __all__ = [
 ]
 
 
-def write_model(run_dir, model, config_name: str, what: str) -> str:
+def write_model(run_dir, model, config_name: str, what: str, records=()) -> str:
     """Write a fitted model where every app can use it again: ``model.pt`` (its state dict, for
     ``hybridhyst-train nominal_state=``) and ``model/<config_name>.yaml`` (its config with the fitted values,
     ``physics.model_config``); return the override that selects it, ``'hydra.searchpath=[file://<run dir>]'
-    model=<config_name>``. ``what`` heads the YAML file (e.g. "discovered by hybridhyst-discover")."""
+    model=<config_name>``. ``what`` heads the YAML file (e.g. "discovered by hybridhyst-discover"). A condition or
+    control channel the model reads (a trend discovery added) whose unit the model does not name takes the unit
+    ``records`` give it, so that a later run on data in another unit is refused rather than misread."""
     from pathlib import Path
 
     import torch
 
     from ..physics import model_config
+    from ..physics.models import conditions_used
 
+    for name in conditions_used(model):
+        unit = next((r.units.get(name) for r in records if r.units.get(name)), None)
+        if unit and name not in model.units:
+            model.units[name] = unit
     run_dir = Path(run_dir).resolve()
     atomic_write(run_dir / "model.pt", lambda p: torch.save(model.state_dict(), p))
     (run_dir / "model").mkdir(exist_ok=True)

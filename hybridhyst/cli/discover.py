@@ -169,7 +169,7 @@ def run(cfg: DictConfig) -> dict:
                     time_unit=records.records[0].units.get("t") or "s", warn=lambda text: say(text, error=True))
     unit = records.records[0].units.get("y", "")
     title = cfg.title or f"Discovery: {cfg.model.get('name') or model.name} nominal on {records.name}"
-    reuse = write_model(run_dir, result.model, "discovered", "discovered by hybridhyst-discover")
+    reuse = write_model(run_dir, result.model, "discovered", "discovered by hybridhyst-discover", records.records)
     result.report["model_config"] = "model/discovered.yaml"
     write_discovery(result, run_dir, title=title, unit=unit)
     mark_complete(run_dir, "discover", ["config.yaml", "discovery.json", "report.md", "residuals.png", "loops.png",

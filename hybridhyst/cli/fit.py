@@ -293,7 +293,7 @@ def run(cfg: DictConfig) -> dict:
     summary["wall_s"] = time.perf_counter() - start
     summary["loop_records"] = loop_names
     summary["loop_caption"] = loop_caption(loop_names, held_out.names, chosen is not None)
-    summary["reuse"] = write_model(run_dir, model, "fitted", "fitted by hybridhyst-fit")
+    summary["reuse"] = write_model(run_dir, model, "fitted", "fitted by hybridhyst-fit", [*train, *held_out])
     write_report(run_dir / "report.md", summary)
     write_json(run_dir / "summary.json", summary)
     mark_complete(run_dir, "fit", ["config.yaml", "predictions.parquet", "report.md", "summary.json", "loop.png",

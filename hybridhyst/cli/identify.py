@@ -216,7 +216,7 @@ def run(cfg: DictConfig) -> dict:
     shown = list(records)[: max(1, int(cfg.report.max_figures))]
     write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")
     # the fitted nominal (model.pt, model/identified.yaml): hybridhyst-train starts a hybrid from it
-    reuse = write_model(run_dir, model, "identified", "identified by hybridhyst-identify")
+    reuse = write_model(run_dir, model, "identified", "identified by hybridhyst-identify", list(records))
     summary["wall_s"] = time.perf_counter() - start
     atomic_write(run_dir / "report.md", _report(summary))
     write_json(run_dir / "summary.json", summary)
