@@ -273,6 +273,9 @@ def test_standard_deviations_are_given_at_the_least_squares_minimum(tmp_path):
     cfg = _mr_config(tmp_path, _mr_loops(tmp_path / "mr.csv", tests=((10.0, 1.0),), seed=100))
     summary = identify_cli.run(cfg)
     assert summary["uncertainty"] and summary["rmse"] < 1.05 * 2.0
+    # white noise: the residual's lag-1 autocorrelation near 0 and no note doubting the sd
+    report = (tmp_path / "run" / "report.md").read_text()
+    assert abs(summary["residual_lag_1"]) < 0.1 and "autocorrelation" not in report
     model = instantiate(OmegaConf.load(tmp_path / "run" / "model" / "identified.yaml"), _convert_="all").double()
     space = SearchSpace(model)
     problem = RecordsProblem(space, list(identify_cli._load(cfg)), substeps=int(cfg.simulation.substeps))
@@ -281,6 +284,13 @@ def test_standard_deviations_are_given_at_the_least_squares_minimum(tmp_path):
     after = levenberg_marquardt(problem.residuals, space, x[None], iters=40, progress=False).cost
     assert before == pytest.approx(summary["rmse"] ** 2, rel=1e-6)
     assert (before - after) / before < 1e-6, (before, after)
+
+
+def test_a_residual_correlated_in_time_puts_the_standard_deviations_in_doubt():
+    coloured = {"residual_lag_1": 0.8, "uncertainty": {"stiffness.k": 0.03}}
+    assert "0.80" in identify_cli.coloured_note(coloured) and "larger" in identify_cli.coloured_note(coloured)
+    assert identify_cli.coloured_note({**coloured, "residual_lag_1": 0.1}) == ""
+    assert identify_cli.coloured_note({**coloured, "uncertainty": {}}) == ""  # no sd given: nothing to doubt
 
 
 def test_step_doubling_identifies_loops_that_one_step_per_sample_cannot_follow():

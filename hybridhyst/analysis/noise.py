@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["noise_sd"]
+__all__ = ["autocorrelation", "noise_sd"]
 
 MAD_TO_SD = 1.4826  # the standard deviation of a Gaussian per unit of median absolute deviation
 
@@ -34,3 +34,13 @@ def noise_sd(responses: Sequence[np.ndarray]) -> float | None:
             return None
         estimates.append(MAD_TO_SD * float(np.median(np.abs(d - np.median(d)))) / math.sqrt(math.comb(2 * k, k)))
     return min(estimates)
+
+
+def autocorrelation(residual, lags=(1, 5, 20)) -> dict[str, float]:
+    """Autocorrelation of a residual (its mean removed) at each lag: ``{"lag_1": ..., "lag_5": ..., "lag_20": ...}``
+    (NaN where the residual is shorter than the lag). Near 0 for white noise; an uncertainty computed as if the
+    samples were independent is too small where it is not (fewer independent samples than samples)."""
+    r = np.asarray(residual, float)
+    r = r - r.mean()
+    d = float(np.dot(r, r)) or 1.0
+    return {f"lag_{k}": float(np.dot(r[:-k], r[k:]) / d) if len(r) > k else math.nan for k in lags}

@@ -15,10 +15,12 @@ import time
 from pathlib import Path
 
 import hydra
+import numpy as np
 import torch
 from omegaconf import DictConfig
 
 from ..analysis.finite import DivergenceError, check_finite, divergence_message, nonfinite_records
+from ..analysis.noise import autocorrelation
 from ..data.records import RecordSet
 from ..identify import SearchSpace, identify
 from ..report.figures import write_loops
@@ -124,12 +126,25 @@ def _report(summary: dict) -> str:
         lines.append(f"| {c['expression']} | {c['eigenvalue']:.3g} | {_num(c['sd'])} | {ok} |")
     if summary["at_bounds"]:
         lines += ["", edge_line(summary["at_bounds"], WIDEN)]
+    if coloured_note(summary):
+        lines += ["", coloured_note(summary)]
     if summary["non_identifiable"]:
         lines += ["", "Not identifiable from these records (they trade off): "
                   + ", ".join(summary["non_identifiable"]) + ". Compare responses and the identifiable "
                   "combinations, not these raw values."]
     lines += ["", "![loops](loops.png)", "", model_reuse_sentence("identified", "model/identified.yaml"), ""]
     return "\n".join(lines)
+
+
+def coloured_note(summary: dict) -> str:
+    """Where the residual is correlated from sample to sample (mean lag-1 autocorrelation ≥ 0.3), that the ± sd
+    assume independent samples ('' otherwise, or without uncertainties)."""
+    lag = summary.get("residual_lag_1")
+    if lag is None or not lag >= 0.3 or not summary.get("uncertainty"):
+        return ""
+    return (f"The residual's lag-1 autocorrelation is {lag:.2f}: the ± sd assume independent samples, and with noise "
+            "(or a model error) correlated in time the records hold fewer independent samples than samples, so the "
+            "true uncertainties are larger.")
 
 
 # the keys that widen identification's search box, for the sentence on coordinates at its edge
@@ -153,8 +168,8 @@ def summary_lines(summary: dict, run_dir, reuse: str | None = None) -> list[str]
         lines.append(f"  not identifiable from these records (they trade off): {traded}")
     if summary["at_bounds"]:
         lines.append("  " + edge_line(summary["at_bounds"], WIDEN))
-    note = resolution_note(summary["simulation"], "identify")
-    lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
+    for note in (coloured_note(summary), resolution_note(summary["simulation"], "identify")):
+        lines += textwrap.wrap(note, 116, initial_indent="  ", subsequent_indent="  ") if note else []
     if reuse:
         lines.append(f"  the identified model in another app: {reuse}")
     lines.append(f"  report: {Path(run_dir) / 'report.md'}")
@@ -213,6 +228,9 @@ def run(cfg: DictConfig) -> dict:
                                 warn=lambda text: say(text, error=True))
         summary = _summary(cfg, model, result, records)
         summary["diverged"] = [d.to_dict() for d in diverged]
+        lags = [autocorrelation(np.asarray(r.y) - np.asarray(p)[:, 0])["lag_1"]
+                for r, p in zip(records, preds) if np.all(np.isfinite(np.asarray(p)))]
+        summary["residual_lag_1"] = float(np.nanmean(lags)) if lags else None
     shown = list(records)[: max(1, int(cfg.report.max_figures))]
     write_loops(run_dir / "loops.png", shown, {"identified": list(preds)[: len(shown)]}, measured="data")
     # the fitted nominal (model.pt, model/identified.yaml): hybridhyst-train starts a hybrid from it

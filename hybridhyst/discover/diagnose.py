@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from ..analysis.noise import autocorrelation
+
 __all__ = ["FEATURES", "FEATURE_UNITS", "diagnose", "features", "shared_controls", "structure_explained"]
 
 FEATURES = ("x", "v", "sign_v", "since_reversal", "phase", "time", "travel")
@@ -67,12 +69,6 @@ def _within(feature: np.ndarray, r: np.ndarray, groups: list[np.ndarray]) -> flo
     return sum(w * e for w, e in parts) / total if total > 0 else 0.0
 
 
-def _autocorrelation(r: np.ndarray, lags=(1, 5, 20)) -> dict[str, float]:
-    r = r - r.mean()
-    d = float(np.dot(r, r)) or 1.0
-    return {f"lag_{k}": float(np.dot(r[:-k], r[k:]) / d) if len(r) > k else math.nan for k in lags}
-
-
 def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     """Diagnostics of the residual (measured − predicted) over ``records`` (lists of the same length).
 
@@ -101,7 +97,7 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
         for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))
-        acs.append(_autocorrelation(r))
+        acs.append(autocorrelation(r))
     r = np.concatenate(r_all)
     # a feature's η² within each operating point (records of equal numeric conditions), weighted by the point's
     # residual sum of squares: a structure whose sign or size changes with the condition cancels in a pooled mean
