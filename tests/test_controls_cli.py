@@ -219,3 +219,6 @@ def test_a_written_model_names_the_unit_of_a_control_it_reads(tmp_path):
     write_model(tmp_path, model, "discovered", "discovered by a test", [record])
     text = (tmp_path / "model" / "discovered.yaml").read_text()
     assert yaml.safe_load(text)["units"]["current"] == "A"
+    # summary.json and discovery.json give a trend's config beside its text: what a program reads back
+    info = model.parameter_table()["viscous"]["c"]
+    assert info["function"] == {"kind": "linear", "condition": "current", "intercept": 1.0, "slope": 2.0}

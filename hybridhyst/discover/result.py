@@ -112,6 +112,8 @@ def disagreement_line(step: dict, unit: str = "") -> str | None:
 
 
 def parameter_values(model) -> dict:
-    """``{"effect.parameter": {"value", "unit"}}`` of ``model`` (functions as text), as discovery.json lists them."""
-    return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"]}
+    """``{"effect.parameter": {"value", "unit"}}`` of ``model`` (functions as text, and their config under
+    ``"function"``: kind, condition, coefficients), as discovery.json lists them."""
+    return {f"{e}.{p}": {"value": info["value"], "unit": info["unit"],
+                         **({"function": info["function"]} if "function" in info else {})}
             for e, params in model.parameter_table().items() for p, info in params.items()}

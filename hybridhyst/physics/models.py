@@ -135,7 +135,8 @@ class NominalModel(nn.Module):
 
     def parameter_table(self) -> dict[str, dict[str, dict]]:
         """{effect: {parameter: {"value": float or text, "unit": str, "fixed": bool}}} for reports: constant
-        parameters give a number, condition-dependent ones their description (e.g. a polynomial)."""
+        parameters give a number, condition-dependent ones their description (e.g. a polynomial) and, under
+        ``"function"``, their config (kind, condition, coefficients: what a program reads back)."""
         from .parameters import Constant, Fixed
 
         out: dict[str, dict[str, dict]] = {}
@@ -146,6 +147,8 @@ class NominalModel(nn.Module):
                 fn = fns.get(pname)
                 value = float(fn(None, 1)[0].detach()) if isinstance(fn, (Constant, Fixed)) else info["value"]
                 out[key][pname] = {"value": value, "unit": info["unit"], "fixed": isinstance(fn, Fixed)}
+                if not isinstance(fn, (Constant, Fixed)) and fn is not None and hasattr(fn, "config"):
+                    out[key][pname]["function"] = fn.config()
         return out
 
     def with_effects(self, effects) -> NominalModel:
