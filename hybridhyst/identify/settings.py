@@ -54,8 +54,9 @@ class IdentifySettings:
         started at the values found, with those boxes centred on them and every other box as it was (a short
         search, one generation of 8, and the refinement: the first search found the basin, the box stopped it),
         up to ``recentre`` times: a declared value more than ``box_factor`` from the data's optimum is followed
-        there. A pass is kept if it lowers the cost (``recentred`` counts them); the passes end at the target, at
-        a pass that lowers the cost by less than 1 % or fails, or where no box can move (a domain's own limit).
+        there. A pass is kept if it lowers the cost by at least 1 % (``recentred`` counts them; one that gains less
+        is undone); the passes end at the target, at a pass not kept or that fails, or where no box can move (a
+        domain's own limit).
         0 (default): the edge is reported only.
     torch_threads : torch intra-op threads during the run (restored after; None leaves them). The compiled
         simulator already runs rows in parallel; torch's threads competing with it made identification of the
