@@ -62,6 +62,7 @@ def test_a_residual_that_follows_a_control_channel_is_seen_by_the_diagnostics_an
     blind = residual_network([dataclasses.replace(r, controls={}) for r in records[:half]], preds[:half],
                              [dataclasses.replace(r, controls={}) for r in records[half:]], preds[half:], steps=300)
     assert net["explained_share"] > blind["explained_share"] + 0.2
+    assert net["inputs"][-1] == "current" and "current" not in blind["inputs"]  # report.md names what it read
 
 
 def test_a_residual_whose_size_grows_with_a_condition_is_named():

@@ -85,7 +85,8 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
         pv = net(torch.as_tensor((Xv - mu) / sd))[:, 0].numpy() * rs
     share = 1 - float(np.var(Rv - pv) / max(np.var(Rv), 1e-300))
     return {"network": "static", "explained_share": share, "on": "val" if val else "train",
-            "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2)))}
+            "rmse_after_network": float(np.sqrt(np.mean((Rv - pv) ** 2))),
+            "inputs": ["x", "ẋ", "sign ẋ", "travel since reversal", *controls]}
 
 
 def neural_leftover(model, train, val=None, *, sim: SimulationSettings, conditions: dict | None = None,

@@ -321,13 +321,13 @@ def _leftover_sentence(net: dict) -> str:
                 f"{on} records ({_fmt(net['rmse_before'])} → {_fmt(net['rmse_after_network'])}; "
                 f"{_fmt(100 * net['train_share'])} % on the training records)"
                 + (", in sample: not used for the flag." if on != "val" else "."))
+    inputs = ", ".join(net.get("inputs") or ["x", "ẋ", "sign ẋ", "travel since reversal"])
     if net["explained_share"] <= 0:
-        return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers none of the remaining residual "
+        return (f"A small network of ({inputs}) recovers none of the remaining residual "
                 f"variance on the {on} records (its prediction there is worse than none: {share} %).")
     where = ("training records it was fitted to (no validation records: in sample, an upper bound)" if on == "train"
              else f"{on} records")
-    return (f"A small network of (x, ẋ, sign ẋ, travel since reversal) recovers {share} % of the remaining "
-            f"residual variance on the {where}.")
+    return f"A small network of ({inputs}) recovers {share} % of the remaining residual variance on the {where}."
 
 
 def write_discovery(result: DiscoveryResult, out_dir, title: str = "Discovery", unit: str = "") -> Path:
