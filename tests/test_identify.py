@@ -432,25 +432,30 @@ def test_a_re_centred_pass_that_finds_nothing_better_leaves_the_model_at_the_fit
     assert float(model.effects["spring"].params["k"].value) == pytest.approx(res.x["spring.k"], rel=1e-12)
 
 
-def test_a_re_centred_pass_that_gains_less_than_its_threshold_is_undone(float64, monkeypatch):
-    """A pass that lowers the cost, but by less than ``RECENTRE_GAIN`` asks, is undone: a value followed further
-    for nothing would only move the boxes that later fits start from (the control-blind first fit of an MR damper
-    pushed its stiffness a decade lower for 0.02 % and discovery then never found it again). Here every pass
-    gains less than the threshold set: nothing is kept, the model is the first fit's."""
+def test_a_re_centred_pass_is_kept_where_it_gains_or_finds_the_optimum_and_undone_where_a_value_runs_off(
+        float64, monkeypatch):
+    """With a gain no pass reaches (``RECENTRE_GAIN`` lowered): a pass that brings the value it followed inside its
+    box (the spring's optimum found) is kept, and the passes end there; a pass that leaves it at an edge again (a
+    Coulomb level the data lack, running off towards 0) is undone, and the model is the first fit's: followed for
+    nothing it would only move the boxes that later fits start from (the control-blind first fit of an MR damper
+    pushed its stiffness a decade lower for 0.02 %, and discovery then never found it again)."""
     import sys
 
     ident = sys.modules["hybridhyst.identify.identify"]
     records = _sine_damper_records(600.0, 40.0)
     opts = {"progress": False, "fisher": False, "seed": 0}
 
-    def model():
-        return Constitutive({"spring": EFFECTS["linear_stiffness"](k=10.0), "viscous": Viscous(c=30.0)},
-                            units={"x": "mm", "F": "N", "t": "s"}).double()
+    def model(k, Fc=None):
+        effects = {"spring": EFFECTS["linear_stiffness"](k=k), "viscous": Viscous(c=30.0)}
+        if Fc is not None:
+            effects["coulomb"] = EFFECTS["coulomb"](Fc=Fc)
+        return Constitutive(effects, units={"x": "mm", "F": "N", "t": "s"}).double()
 
-    followed = identify(model(), records, recentre=1, **opts)
-    assert followed.recentred == 1  # the threshold as shipped: the pass is kept
-    monkeypatch.setattr(ident, "RECENTRE_GAIN", 1e-12)  # a gain no pass reaches
-    first, m = identify(model(), records, **opts), model()
-    res = identify(m, records, recentre=1, **opts)
+    monkeypatch.setattr(ident, "RECENTRE_GAIN", 1e-12)
+    found = identify(model(10.0), records, recentre=3, **opts)
+    assert found.recentred == 1 and not found.at_bounds and found.x["spring.k"] == pytest.approx(600.0, rel=0.01)
+    first, m = identify(model(600.0, Fc=5.0), records, **opts), model(600.0, Fc=5.0)
+    assert first.at_bounds["coulomb.Fc"] == "lower"
+    res = identify(m, records, recentre=3, **opts)
     assert res.recentred == 0 and res.cost == first.cost and res.x == first.x
-    assert float(m.effects["spring"].params["k"].value) == pytest.approx(first.x["spring.k"], rel=1e-12)
+    assert float(m.effects["coulomb"].params["Fc"].value) == pytest.approx(first.x["coulomb.Fc"], rel=1e-12)

@@ -200,7 +200,8 @@ def _boxes(space) -> dict[str, tuple[float, float]]:
     return {c.name: (c.lower, c.upper) for c in space.coordinates}
 
 
-RECENTRE_GAIN = 0.99  # a pass is kept only where it lowers the cost by 1 % or more; else undone, and the end
+RECENTRE_GAIN = 0.99  # a pass that lowers the cost by less than 1 % ends the re-centring (and is undone if it
+# leaves the values it followed at an edge)
 RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search of a re-centred pass
 
 
@@ -209,9 +210,11 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
     their own rule) end at an edge of a default box the user set no bounds for, the search again, started at the
     values found, with the constants' default boxes centred on them and the user's and the trends' boxes as they
     were (a short search, and the refinement from its best and from the values found: the first search found the
-    basin, the box stopped it). A pass is kept if it lowers the cost by at least 1 %; the passes end at the
-    target, at a pass that does not (undone) or fails, or where no box can move (a domain's own limit, such as a
-    share's 1, is an edge of every box)."""
+    basin, the box stopped it). A pass is kept if it lowers the cost by at least 1 %, or lowers it and leaves the
+    values it followed inside their boxes (their optimum found); one that leaves them at an edge for less is
+    undone (they run off towards a limit the data do not fix). The passes end at the target, at a pass that gains
+    less than 1 % or is undone or fails, or where no box can move (a domain's own limit, such as a share's 1, is
+    an edge of every box)."""
     ranges = condition_ranges(records)
     space = SearchSpace(model, o.bounds, factor=o.box_factor, condition_ranges=ranges)
     boxes = _boxes(space)
@@ -240,16 +243,20 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
         again.evaluations += result.evaluations
         again.history = {key: result.history.get(key, []) + again.history.get(key, [])
                          for key in dict.fromkeys([*result.history, *again.history])}
-        if again.cost < RECENTRE_GAIN * result.cost:
+        gain = again.cost < RECENTRE_GAIN * result.cost
+        inside = not any(n in again.at_bounds for n in follow)  # the values followed found an optimum in the box
+        if again.cost < result.cost and (gain or inside):
             again.recentred = k + 1
             result, last = again, step
             boxes = _boxes(space)
-        else:  # nothing materially better around the edge: the fit before it, with the time the pass cost (a
-            # value followed further for less only moves the box later fits start from: a stiffness the
-            # control-blind first fit of an MR damper pushes to its edge, followed, no longer reaches its value
-            # once the voltage's trends are in)
+        else:  # still at the edge for (next to) nothing: the value runs off towards a limit the data do not fix;
+            # followed, it would only move the boxes later fits start from (a stiffness the control-blind first fit
+            # of an MR damper pushes a decade down for 0.02 % no longer reaches its value once the voltage's trends
+            # are in). The fit before it, with the time the pass cost
             model.load_state_dict(kept)
             result.wall_s, result.evaluations, result.history = again.wall_s, again.evaluations, again.history
+            break
+        if not gain:
             break
     if last is not None and o.fisher:  # the identifiability analysis once, at the point kept
         space = SearchSpace(model, last.bounds, factor=o.box_factor, condition_ranges=ranges)
