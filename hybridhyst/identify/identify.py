@@ -201,7 +201,7 @@ def _boxes(space) -> dict[str, tuple[float, float]]:
 
 
 RECENTRE_GAIN = 0.99  # a pass that lowers the cost by less than 1 % ends the re-centring (and is undone if it
-# leaves the values it followed at an edge)
+# leaves a value it followed at the same edge again)
 RECENTRED = {"pop": 8, "generations": 1, "rounds": 1}  # the search of a re-centred pass
 
 
@@ -210,9 +210,9 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
     their own rule) end at an edge of a default box the user set no bounds for, the search again, started at the
     values found, with the constants' default boxes centred on them and the user's and the trends' boxes as they
     were (a short search, and the refinement from its best and from the values found: the first search found the
-    basin, the box stopped it). A pass is kept if it lowers the cost by at least 1 %, or lowers it and leaves the
-    values it followed inside their boxes (their optimum found); one that leaves them at an edge for less is
-    undone (they run off towards a limit the data do not fix). The passes end at the target, at a pass that gains
+    basin, the box stopped it). A pass is kept if it lowers the cost by at least 1 %, or lowers it without leaving a
+    value it followed at the same edge again; one that does, for less, is undone (the value runs off towards a
+    limit the data do not fix). The passes end at the target, at a pass that gains
     less than 1 % or is undone or fails, or where no box can move (a domain's own limit, such as a share's 1, is
     an edge of every box)."""
     ranges = condition_ranges(records)
@@ -244,12 +244,14 @@ def _recentred(model, records, o: IdentifySettings, result: IdentificationResult
         again.history = {key: result.history.get(key, []) + again.history.get(key, [])
                          for key in dict.fromkeys([*result.history, *again.history])}
         gain = again.cost < RECENTRE_GAIN * result.cost
-        inside = not any(n in again.at_bounds for n in follow)  # the values followed found an optimum in the box
-        if again.cost < result.cost and (gain or inside):
+        # a value followed that ends at the same edge again runs off towards a limit; one inside its box, or at the
+        # other edge (back towards where the first search started), does not
+        runs_off = any(again.at_bounds.get(n) == result.at_bounds[n] for n in follow)
+        if again.cost < result.cost and (gain or not runs_off):
             again.recentred = k + 1
             result, last = again, step
             boxes = _boxes(space)
-        else:  # still at the edge for (next to) nothing: the value runs off towards a limit the data do not fix;
+        else:  # at the same edge for (next to) nothing: the value runs off towards a limit the data do not fix;
             # followed, it would only move the boxes later fits start from (a stiffness the control-blind first fit
             # of an MR damper pushes a decade down for 0.02 % no longer reaches its value once the voltage's trends
             # are in). The fit before it, with the time the pass cost

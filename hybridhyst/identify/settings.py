@@ -54,9 +54,9 @@ class IdentifySettings:
         started at the values found, with those boxes centred on them and every other box as it was (a short
         search, one generation of 8, and the refinement: the first search found the basin, the box stopped it),
         up to ``recentre`` times: a declared value more than ``box_factor`` from the data's optimum is followed
-        there. A pass is kept if it lowers the cost by at least 1 %, or lowers it and leaves the values it
-        followed inside their boxes (``recentred`` counts them; one that leaves them at an edge for less is undone:
-        they run off towards a limit the data do not fix); the passes end at the target, at a pass that gains less
+        there. A pass is kept if it lowers the cost by at least 1 %, or lowers it without leaving a value it
+        followed at the same edge again (``recentred`` counts them; one that does, for less, is undone: the value
+        runs off towards a limit the data do not fix); the passes end at the target, at a pass that gains less
         than 1 %, is undone or fails, or where no box can move (a domain's own limit).
         0 (default): the edge is reported only.
     torch_threads : torch intra-op threads during the run (restored after; None leaves them). The compiled
