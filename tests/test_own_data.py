@@ -126,8 +126,9 @@ def test_discover_runs_and_prints_a_summary(tmp_path, capsys):
     assert saved["records"] == {"train": TRAINING, "val": [], "test": ["p0.05", "p0.09"]}
     assert report["before"]["test_rmse"] > 0
     out = capsys.readouterr().out.splitlines()
-    assert out[-5].startswith("discovery: added ") and out[-4].startswith("  test RMSE ")
-    assert out[-4].endswith(" Nm") and out[-1] == f"  report: {tmp_path / 'report.md'}"
+    first = next(i for i, line in enumerate(out) if line.startswith("discovery: added "))
+    assert out[first + 1].startswith("  test RMSE ") and out[first + 1].endswith(" Nm")
+    assert out[-1] == f"  report: {tmp_path / 'report.md'}"
     text = (tmp_path / "report.md").read_text()
     assert text.startswith("# Discovery: vpptd_algebraic nominal on damper_loops")
     # no validation records: the report says which records the acceptance rule scored, never "validation RMSE"

@@ -124,7 +124,7 @@ def test_blind_bed_cases_are_scored_by_the_library_families_of_their_effect_word
     assert len(BLIND_CASES) >= 16
     by = {c.name: c for c in BLIND_CASES}
     assert by["clean_symmetric_damper"].category == "clean"
-    assert by["play_friction_damper"].expected == (frozenset({"backlash", "clearance"}),)
+    assert by["play_friction_damper"].expected == (frozenset({"backlash", "relaxing_backlash", "clearance"}),)
     assert by["asymmetric_friction_drift_damper"].category == "pair"
     assert by["asymmetric_viscous_damper"].category == "out_of_library"  # no direction-dependent damping
     assert by["cogging_rotary_damper"].category == "out_of_library"

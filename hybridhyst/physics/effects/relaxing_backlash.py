@@ -38,7 +38,7 @@ class RelaxingBacklash(Backlash):
     """
 
     name = "relaxing_backlash"
-    example_values = {"r": 0.1, "lam": 3.0}
+    example_values = {"r": 0.02, "lam": 3.0}  # a play the gradient tests' short motion closes
     equation = ("dd/dt = v + lam (x - d), d in [-r, r] (projected);  later effects see x - d, "
                 "v if the gap is closed else -lam (x - d)")
     source = "Krasnosel'skii & Pokrovskii 1989 (play operator); Nordin & Gutman 2002 (a Kelvin element behind a gap)"
