@@ -199,8 +199,7 @@ class Record:
         warmup = max(0, -(-(self.warmup - first) // stride))  # warm-up samples kept in the slice
         conditions = self.conditions
         if TRAVEL_BEFORE in conditions and first > 0:  # (with_travel_before): the history of the slice's start
-            conditions = {**conditions, TRAVEL_BEFORE: float(conditions[TRAVEL_BEFORE])
-                          + float(np.abs(np.diff(self.x[: first + 1])).sum())}
+            conditions = {**conditions, TRAVEL_BEFORE: float(conditions[TRAVEL_BEFORE]) + _travel(self.x[: first + 1])}
         t = self.t[sl]
         return Record(
             name=name or self.name, t=t, x=self.x[sl], y=self.y[sl], conditions=conditions,
@@ -359,6 +358,11 @@ class RecordSet:
         return out
 
 
+def _travel(x) -> float:
+    """The distance an input travels along its samples, Σ |Δx|."""
+    return float(np.abs(np.diff(np.asarray(x, float))).sum())
+
+
 def with_travel_before(records, name: str = TRAVEL_BEFORE) -> list[Record]:
     """The records, in the order they were measured, each with the condition ``name``: the distance the input x
     travelled in the records before it, Σ |Δx| over their samples after any warm-up (x's unit; 0 for the first),
@@ -379,7 +383,7 @@ def with_travel_before(records, name: str = TRAVEL_BEFORE) -> list[Record]:
     for r in records:
         # a warm-up is simulated before the record's first scored sample but was not measured: the record's value
         # is the travel before its simulated start, so that its scored samples start at ``before``
-        warm = float(np.abs(np.diff(r.x[: r.warmup + 1])).sum())
+        warm = _travel(r.x[: r.warmup + 1])
         out.append(dataclasses.replace(r, conditions={**r.conditions, name: before - warm}))
-        before += float(np.abs(np.diff(r.x[r.warmup:])).sum())
+        before += _travel(r.x[r.warmup:])
     return out

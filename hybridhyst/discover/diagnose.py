@@ -17,9 +17,10 @@ FEATURE_UNITS = {"x": "x", "v": "x/t", "sign_v": "-", "since_reversal": "x", "ph
 _BINS = 12
 
 
-def features(t: np.ndarray, x: np.ndarray) -> dict[str, np.ndarray]:
+def features(t: np.ndarray, x: np.ndarray, controls: dict | None = None) -> dict[str, np.ndarray]:
     """Per-sample features of one record: x, ẋ, sign(ẋ), distance travelled since the last reversal,
-    loop phase (angle of (x, ẋ) normalised by their spreads, radians), time, cumulative travel."""
+    loop phase (angle of (x, ẋ) normalised by their spreads, radians), time, cumulative travel; and each of
+    ``controls`` (``{name: channel}``, a record's control channels) as ``control:<name>``."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     v = np.gradient(x, t, edge_order=2) if len(x) > 2 else np.zeros_like(x)
     s = np.sign(v)
@@ -31,7 +32,8 @@ def features(t: np.ndarray, x: np.ndarray) -> dict[str, np.ndarray]:
         since[i] = abs(x[i] - anchor)
     phase = np.arctan2(v / (np.std(v) or 1.0), (x - x.mean()) / (np.std(x) or 1.0))
     travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(x)))])
-    return {"x": x, "v": v, "sign_v": s, "since_reversal": since, "phase": phase, "time": t - t[0], "travel": travel}
+    return {"x": x, "v": v, "sign_v": s, "since_reversal": since, "phase": phase, "time": t - t[0], "travel": travel,
+            **{f"control:{k}": np.asarray(c, float) for k, c in (controls or {}).items()}}
 
 
 def shared_controls(records) -> list[str]:
@@ -81,19 +83,15 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     (``control:<name>``, per sample: a residual that follows a coil current the model reads wrongly). ``white`` is
     true when the lag-1 autocorrelation is below 0.3.
     """
-    r_all, feats = [], {k: [] for k in FEATURES}
-    for name in shared_controls(records):
-        feats[f"control:{name}"] = []
+    controls = shared_controls(records)
+    r_all, feats = [], {k: [] for k in [*FEATURES, *(f"control:{c}" for c in controls)]}
     conds: dict[str, list] = {}
     acs = []
     for rec, pred in zip(records, predictions):
         r = np.asarray(rec.y, float) - np.asarray(pred, float)
         r_all.append(r)
-        for k, v in features(rec.t, rec.x).items():
+        for k, v in features(rec.t, rec.x, {c: rec.controls[c] for c in controls}).items():
             feats[k].append(v)
-        for k in feats:
-            if k.startswith("control:"):
-                feats[k].append(np.asarray(rec.controls[k[len("control:"):]], float))
         for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))

@@ -86,8 +86,7 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
     labels = {**{f: render_unit(FEATURE_UNITS[f], units) for f in FEATURES},
               **{f"control:{c}": train[0].units.get(c) or "-" for c in controls}}
     for row, stage in enumerate(("before", "after")):
-        feats = [{**features(r.t, r.x), **{f"control:{c}": np.asarray(r.controls[c], float) for c in controls}}
-                 for r in train]
+        feats = [features(r.t, r.x, {c: r.controls[c] for c in controls}) for r in train]
         res = [np.asarray(r.y) - p for r, p in zip(train, result.predictions[stage]["train"])]
         for col, name in enumerate(names):
             ax = axes[row, col]
@@ -321,7 +320,7 @@ def _leftover_sentence(net: dict) -> str:
                 f"{on} records ({_fmt(net['rmse_before'])} → {_fmt(net['rmse_after_network'])}; "
                 f"{_fmt(100 * net['train_share'])} % on the training records)"
                 + (", in sample: not used for the flag." if on != "val" else "."))
-    inputs = ", ".join(net.get("inputs") or ["x", "ẋ", "sign ẋ", "travel since reversal"])
+    inputs = ", ".join(net["inputs"])
     if net["explained_share"] <= 0:
         return (f"A small network of ({inputs}) recovers none of the remaining residual "
                 f"variance on the {on} records (its prediction there is worse than none: {share} %).")

@@ -147,7 +147,7 @@ class NominalModel(nn.Module):
                 fn = fns.get(pname)
                 value = float(fn(None, 1)[0].detach()) if isinstance(fn, (Constant, Fixed)) else info["value"]
                 out[key][pname] = {"value": value, "unit": info["unit"], "fixed": isinstance(fn, Fixed)}
-                if not isinstance(fn, (Constant, Fixed)) and fn is not None and hasattr(fn, "config"):
+                if fn is not None and not isinstance(fn, (Constant, Fixed)):
                     out[key][pname]["function"] = fn.config()
         return out
 

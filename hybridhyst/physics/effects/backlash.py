@@ -56,9 +56,12 @@ class Backlash(Effect):
     def state_bounds(self, p):
         return [(-p["r"], p["r"])]
 
+    @staticmethod
+    def closed(gap, driven, r):
+        """1 where the gap is closed in the direction it is driven (``driven``: its free rate), else 0; always
+        closed at r = 0 (the identity, even where the input reverses inside a step)."""
+        return 1 - (1 - step(gap * sign(driven) - r)) * (1 - step(-r))
+
     def transform(self, p, kin: Kinematics, state):
         gap = state[:, 0]
-        # closed in the direction of motion; always closed at r = 0 (the identity, even where the input
-        # reverses inside a step)
-        closed = 1 - (1 - step(gap * sign(kin.v) - p["r"])) * (1 - step(-p["r"]))
-        return kin.moved(x=kin.x - clamp(gap, -p["r"], p["r"]), v=kin.v * closed)
+        return kin.moved(x=kin.x - clamp(gap, -p["r"], p["r"]), v=kin.v * self.closed(gap, kin.v, p["r"]))

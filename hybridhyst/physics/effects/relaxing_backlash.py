@@ -6,7 +6,7 @@ from typing import ClassVar
 
 from ..parameters import ParameterSpec
 from .backlash import Backlash
-from .base import Kinematics, clamp, rates, sign, step
+from .base import Kinematics, clamp, rates
 
 
 class RelaxingBacklash(Backlash):
@@ -59,9 +59,7 @@ class RelaxingBacklash(Backlash):
         gap = clamp(state[:, 0], -p["r"], p["r"])
         y = kin.x - gap
         free = kin.v + p["lam"] * y
-        # closed in the direction the gap is driven; always closed at r = 0 (the identity)
-        closed = 1 - (1 - step(state[:, 0] * sign(free) - p["r"])) * (1 - step(-p["r"]))
-        return y, free, closed
+        return y, free, self.closed(state[:, 0], free, p["r"])
 
     def rate(self, p, kin: Kinematics, state):
         _, free, _ = self._follower(p, kin, state)
