@@ -46,7 +46,7 @@ def test_simulate_sine_writes_summary_and_predictions(tmp_path):
     assert on_disk["records"]["sine"]["samples"] == 33 == summary["records"]["sine"]["samples"]
     assert {"model", "input", "outputs", "records", "wall_s"} <= set(on_disk)
     table = pd.read_csv(tmp_path / "predictions.csv")
-    assert list(table.columns) == ["record", "t", "u", *on_disk["outputs"]]
+    assert list(table.columns) == ["record", "t", "input", *on_disk["outputs"]]
     assert len(table) == 33 and table[on_disk["outputs"][0]].abs().max() > 0
     assert (tmp_path / "config.yaml").exists()
 

@@ -40,7 +40,7 @@ def _records():
 def _module(dm, past, **kw):
     torch.manual_seed(0)
     return PhysicsModule(_oscillator(), dm.normaliser.to_dict(), encoder_past=past, encoder_hidden="1x16",
-                         backend="reference", **kw)
+                         **kw)
 
 
 def _windowed_loss(module, dm):
@@ -130,18 +130,19 @@ def test_windows_start_where_a_run_of_the_whole_record_has_its_states():
     batch = next(iter(dm.train_dataloader()))
     with torch.no_grad():
         s0 = hybrid._initial_state(batch)
-    checked = 0
+    checked, runs = 0, {}
     for j in range(batch["t"].shape[0]):
         i, s = int(batch["index"][j]), int(batch["start"][j])
         if s == 0:
             assert torch.equal(s0[j], torch.zeros(4, dtype=s0.dtype))
             continue
         assert torch.equal(s0[j, :2], batch["y0"][j])  # measured displacement and velocity
-        w = {k: v[None] for k, v in whole[i].items()}
-        with torch.no_grad():
-            _, states = simulate(hybrid.model, torch.stack([w["u"], w["du"], w["ddu"]], -1), t=w["t"] - w["t"][:, :1],
-                                 return_states=True)
-        assert torch.allclose(s0[j, 2:], states[0, s, 2:], rtol=1e-12, atol=1e-14)
+        if i not in runs:  # the whole record from rest, once per record
+            w = {k: v[None] for k, v in whole[i].items()}
+            with torch.no_grad():
+                runs[i] = simulate(hybrid.model, torch.stack([w["u"], w["du"], w["ddu"]], -1),
+                                   t=w["t"] - w["t"][:, :1], return_states=True)[1]
+        assert torch.allclose(s0[j, 2:], runs[i][0, s, 2:], rtol=1e-12, atol=1e-14)
         assert float(s0[j, 2:].abs().max()) > 1e-3  # a latent state that has moved
         checked += 1
     assert checked

@@ -78,7 +78,7 @@ def test_adjoint_gradient_matches_direct(float64):
     grads = []
     for adjoint in (False, True):
         model.zero_grad()
-        y = simulate(model, u, t=t, solver="torchdiffeq", adjoint=adjoint, rtol=1e-7, atol=1e-9)
+        y = simulate(model, u, t=t, solver="torchdiffeq", adjoint=adjoint, rtol=1e-6, atol=1e-8)
         (y**2).sum().backward()
         grads.append(torch.cat([p.grad.flatten() for p in model.parameters()]))
     assert torch.allclose(grads[0], grads[1], rtol=1e-4)
@@ -231,7 +231,7 @@ def test_simulate_resolved_takes_the_steps_a_stiffer_record_needs(float64):
     model = Constitutive({"dahl": Dahl(sigma0=100.0, Fc=1.0)}, units={"t": "s", "x": "in", "F": "kip"})
     t = np.arange(0.0, 2.0, 0.01)
     fitted, other = (Record(name=f"A{a}", t=t, x=a * np.sin(2 * np.pi * t), y=np.zeros_like(t)) for a in (1.0, 4.0))
-    opts = {"method": "rk4", "backend": "reference"}
+    opts = {"method": "rk4", "backend": "fast"}
     s, _ = resolved_substeps(model, [fitted], substeps=1, **opts)
     with torch.no_grad():
         plain = simulate(model, [other], substeps=s, **opts)[0][:, 0]
@@ -255,7 +255,7 @@ def test_coarsest_substeps_halves_back_to_the_steps_a_model_needs(float64):
 
     t = np.arange(0.0, 2.0, 0.01)
     record = Record(name="A4", t=t, x=4.0 * np.sin(2 * np.pi * t), y=np.zeros_like(t))
-    opts = {"method": "rk4", "backend": "reference"}
+    opts = {"method": "rk4", "backend": "fast"}
     stiff = Constitutive({"dahl": Dahl(sigma0=100.0, Fc=1.0)}, units={"t": "s", "x": "in", "F": "kip"})
     needed, _ = resolved_substeps(stiff, [record], substeps=1, max_substeps=64, **opts)
     assert 1 < needed < 32

@@ -64,6 +64,8 @@ def test_reduced_study_recovers_the_nominal_and_ranks_the_models(tmp_path):
     runs = collect_runs(tmp_path / "runs")
     assert sorted(runs["name"]) == ["hybrid-mlp", "lstm", "mlp", "std-pinn"] and set(runs["status"]) == {"ok"}
     assert set(runs["experiment"]) == {NAME} and summary["training_runs"] == 4
+    # the architecture and data-fraction sweeps of one point each are the λ_phys sweep's run: no process started
+    assert sorted(p.stem for p in (tmp_path / "runs").glob("*.log")) == ["data_fraction_baselines", "lambda_phys"]
     hybrid = runs[runs["name"] == "hybrid-mlp"].iloc[0]
     assert hybrid["hidden"] == (128,) * 4 and hybrid["lambda_phys"] == 0.0 and hybrid["train_windows"] > 0
 

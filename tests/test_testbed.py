@@ -47,14 +47,30 @@ def test_case_list_sanity():
 
 
 def test_case_data_nominal_and_split():
-    import torch
+    """The records, nominal and split of the fast cases (every case: ``test_every_case_of_the_beds_builds``)."""
+    from hybridhyst.testbed.cases import CASE_BY_NAME, FAST_CASES
 
+    _case_data_nominal_and_split([CASE_BY_NAME[name] for name in FAST_CASES])
+
+
+@pytest.mark.slow
+def test_every_case_of_the_beds_builds():
+    """Every case of the first bed, and of the second blind bed, builds its records (generated with scipy's
+    integrators: most of a minute on 2 cores), splits them and simulates its nominal."""
+    from hybridhyst.testbed.blind_cases import bed_cases
     from hybridhyst.testbed.cases import CASES
+
+    _case_data_nominal_and_split(CASES)
+    _every_case_builds_splits_and_simulates(bed_cases("blind2"))
+
+
+def _case_data_nominal_and_split(cases):
+    import torch
 
     old = torch.get_default_dtype()
     torch.set_default_dtype(torch.float64)
     try:
-        for c in CASES:
+        for c in cases:
             records = c.records()
             train, val, test = records.split(held_out=c.split["held_out"], val=c.split["val"])
             assert len(train) >= 2 and len(val) >= 1 and len(test) >= 1, c.name
@@ -158,8 +174,8 @@ def _every_case_builds_splits_and_simulates(cases):
 
 def test_the_second_blind_bed_is_scored_like_the_first():
     """The second blind bed (``testbed/blind2/``, another author): at least 16 cases with clean controls, effect
-    cases and out-of-library ones; every case builds, splits and simulates its declared nominal; an oscillator's
-    mass is the one its author declared; a case name is found in either bed and built alone."""
+    cases and out-of-library ones; an oscillator's mass is the one its author declared; a case name is found in
+    either bed and built alone (every case's records, split and nominal: ``test_every_case_of_the_beds_builds``)."""
     from hybridhyst.testbed import blind2
     from hybridhyst.testbed.blind_cases import _nominal, bed_cases, blind_case
     from hybridhyst.testbed.run import _registered
@@ -170,7 +186,6 @@ def test_the_second_blind_bed_is_scored_like_the_first():
     assert categories.count("clean") >= 4 and categories.count("out_of_library") >= 2
     assert categories.count("single") + categories.count("pair") >= 10
     assert not {c.name for c in cases} & {c.name for c in bed_cases("blind")}  # one name, one case
-    _every_case_builds_splits_and_simulates(cases)
     for fn in blind2.CASES:
         spec = fn()
         if spec.kind == "oscillator":

@@ -78,7 +78,7 @@ def _signal_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
                     conditions={k: v for k, v in conditions.items() if np.ndim(v) != 2})
     (y,), resolution = _resolved(model, [signal], cfg, initial)
     y = y.cpu().numpy()
-    frame = pd.DataFrame({"record": kind, "t": t, "u": u})
+    frame = pd.DataFrame({"record": kind, "t": t, "input": u})
     for i, name in enumerate(_output_names(model)):
         frame[name] = y[:, i]
     info = {"samples": len(t), **resolution}
@@ -100,7 +100,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
     frames, info = [], {}
     for r, p in zip(records, preds):
         y = p.cpu().numpy()
-        frame = pd.DataFrame({"record": r.name, "t": r.t, "u": r.x, **r.controls, "y": r.y})
+        frame = pd.DataFrame({"record": r.name, "t": r.t, "input": r.x, **r.controls, "y": r.y})
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)

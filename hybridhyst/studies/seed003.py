@@ -140,7 +140,8 @@ def _training_tables(runs: TrainingRuns, o: dict, progress: bool) -> dict:
     """The training multiruns and their tables: Table 3 first (λ_phys × seeds; it chooses λ_phys), then Table 2
     (architectures), the data-efficiency curve of the hybrid and of the baselines (their full-data runs are
     Table 4's) and the in-the-loop hybrid."""
-    s0, fractions = o["seeds"][0], sweep_values(sorted(float(f) for f in o["fractions"]))
+    s0, fraction_list = o["seeds"][0], sorted(float(f) for f in o["fractions"])
+    fractions = sweep_values(fraction_list)
     in_the_loop = bool(o.get("in_the_loop", True))
     with progress_bar(total=4 + in_the_loop, desc="seed003 training sweeps", enabled=progress) as bar:
         runs.launch("lambda_phys", "hybrid", "sweep=lambda_phys", "residual.hidden=4x128",
@@ -150,10 +151,12 @@ def _training_tables(runs: TrainingRuns, o: dict, progress: bool) -> dict:
         lam_table, lam = lambda_table(runs, o)
         at_lam = (f"loss.lambda_phys={float(lam)!r}", f"seed={int(s0)}")
         runs.launch("architectures", "hybrid", "sweep=architectures",
-                    f"residual.hidden={sweep_values(o['architectures'])}", *at_lam)
+                    f"residual.hidden={sweep_values(o['architectures'])}", *at_lam,
+                    runs=[("hybrid", h, lam, s0, 1.0) for h in o["architectures"]])
         bar.update()
         runs.launch("data_fraction_hybrid", "hybrid", "sweep=data_fraction", "residual.hidden=4x128", *at_lam,
-                    f"datamodule.train_fraction={fractions}")
+                    f"datamodule.train_fraction={fractions}",
+                    runs=[("hybrid", "4x128", lam, s0, f) for f in fraction_list])
         bar.update()
         runs.launch("data_fraction_baselines", "mlp,lstm,std_pinn", "sweep=data_fraction", f"seed={int(s0)}",
                     f"datamodule.train_fraction={fractions}")

@@ -93,10 +93,14 @@ class TrainingRuns:
         self.table: pd.DataFrame | None = None
         self.used: dict[tuple, dict] = {}  # the runs the tables read, by (kind, hidden, λ_phys, seed, fraction)
 
-    def launch(self, name: str, kind: str, *overrides: str) -> None:
+    def launch(self, name: str, kind: str, *overrides: str, runs: list[tuple] | None = None) -> None:
         """Run ``hybridhyst-train -m`` with ``baseline=<kind's preset>`` (a comma-separated list of kinds sweeps
         them), the shared overrides and ``overrides`` (a sweep config and the swept values); then collect the
-        folder. A failed run is a ``RuntimeError`` naming it and its error (the other runs are kept)."""
+        folder. A failed run is a ``RuntimeError`` naming it and its error (the other runs are kept). ``runs``:
+        the multirun's runs as ``get``'s keys (kind, hidden, λ_phys, seed, fraction); where the folder holds each
+        of them already (an earlier multirun trained it), no process is started."""
+        if runs and all(self._finished(*key) for key in runs):
+            return
         baseline = ",".join(BASELINES[k] for k in kind.split(","))
         cmd = [sys.executable, "-m", "hybridhyst.cli.train", "-m", *self.base, f"baseline={baseline}", *overrides,
                f"hydra.sweep.dir={_hydra(str(self.folder))}"]
@@ -122,6 +126,15 @@ class TrainingRuns:
         if key not in self.used:
             self.used[key] = _result(self._row(*key))
         return self.used[key]
+
+    def _finished(self, kind, hidden, lambda_phys, seed, fraction) -> bool:
+        if self.table is None:
+            return False
+        try:
+            self._row(kind, hidden, float(lambda_phys), int(seed), float(fraction))
+        except RuntimeError:
+            return False
+        return True
 
     def _row(self, kind, hidden, lambda_phys, seed, fraction) -> pd.Series:
         t = self.table if self.table is not None else collect_runs(self.folder)
