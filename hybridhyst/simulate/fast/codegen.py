@@ -40,6 +40,9 @@ class _Printer(C99CodePrinter):
     def _print_Step(self, expr):
         return f"_step({self._print(expr.args[0])})"
 
+    def _print_Tanh(self, expr):
+        return f"tanh({self._print(expr.args[0])})"
+
     def _print_Absolute(self, expr):
         return f"fabs({self._print(expr.args[0])})"
 
