@@ -10,7 +10,8 @@
 3. ``--opt-levels``: the main job built at -O2 and at -O3 (``HYBRIDHYST_OPT``), side by side: for each level an
    empty cache, one cold run, then two warm runs, the levels alternating; the warm runs' ratio -O3 / -O2.
 
-    PYTHONPATH=. python scripts/bench_build.py --main-job --opt-levels --json experiments/performance/bench_build.json --write-readme
+    PYTHONPATH=. python scripts/bench_build.py --main-job --opt-levels \
+        --json experiments/performance/bench_build.json --write-readme
 
 ``--quick``: three models, no main job.
 """
