@@ -216,6 +216,22 @@ def test_jacobian_refuses_what_it_does_not_cover():
 # -- the C build: errors, cache, threads -------------------------------------------------------------------------
 
 
+def test_tanh_in_the_equations_is_real_by_declaration_and_printed_as_c_tanh():
+    """``symbolic.Tanh``: sympy's ``tanh`` cannot say whether tanh of a function it does not know is real (and, on a
+    long argument, spent tens of seconds per model trying); the equations' tanh says yes at once, differentiates as
+    tanh does and is printed as C's ``tanh``."""
+    import sympy as sp
+
+    from hybridhyst.physics.symbolic import Step, Tanh
+    from hybridhyst.simulate.fast.codegen import _Printer
+
+    x = sp.Symbol("x", real=True)
+    arg = Step(x) * x + sp.Function("f")(x)
+    assert sp.tanh(arg).is_real is None and Tanh(arg).is_real is True
+    assert sp.simplify(sp.diff(Tanh(3 * x), x) - sp.diff(sp.tanh(3 * x), x).rewrite(sp.tanh)) == 0
+    assert _Printer().doprint(Tanh(x / 2)) == "tanh((1.0/2.0)*x)"
+
+
 def test_no_c_compiler_is_one_clear_error(monkeypatch):
     from hybridhyst.simulate.fast import build
 
