@@ -3,7 +3,10 @@ its load; the scripts report them): the tests check what the runs must get right
 JSON's keys and shapes, every derived number consistent with the timings it is made of (a ratio is finite,
 positive and the quotient of the two times it compares), the Markdown tables that render from the JSON, and
 the accuracy fields within their tolerances (fast and reference gradients agree; the identified parameters
-lie in their bounds and reach the noise floor, checked again by the script's independent numpy RK4)."""
+lie in their bounds and reach the noise floor, checked again by the script's independent numpy RK4).
+
+The ``--quick`` runs are subprocesses of 8-18 s each: they run with ``-m slow`` (before a benchmark's output is
+regenerated and before an issue is closed), the markdown helpers by default."""
 
 import importlib.util
 import json
@@ -49,6 +52,7 @@ def _per_sample_step_is_consistent(row: dict) -> bool:
     return row["us_per_sample_step"] == pytest.approx(row["time_s"] / (row["batch"] * (row["length"] - 1)) * 1e6)
 
 
+@pytest.mark.slow
 def test_bench_simulate_quick_writes_consistent_json_and_tables(tmp_path):
     res, stdout = _run("bench_simulate.py", tmp_path)
     bench = _script("bench_simulate")
@@ -113,6 +117,7 @@ def test_bench_identify_quick_reaches_the_noise_floor_inside_the_bounds(tmp_path
     assert bench.report_markdown(res) in stdout and f"**{single['ratio']:.0f}×** tuned" in stdout
 
 
+@pytest.mark.slow
 def test_bench_neural_quick_measures_every_path_consistently(tmp_path):
     res, _ = _run("bench_neural.py", tmp_path)
     bench = _script("bench_neural")
@@ -140,6 +145,7 @@ def test_bench_neural_quick_measures_every_path_consistently(tmp_path):
     assert sum(line.startswith("| cpu |") for line in table.splitlines()) == len(cpu) // 2
 
 
+@pytest.mark.slow
 def test_bench_jacobian_quick_agrees_with_finite_differences_and_reports_its_ratios(tmp_path):
     res, stdout = _run("bench_jacobian.py", tmp_path)
     bench = _script("bench_jacobian")
@@ -157,6 +163,7 @@ def test_bench_jacobian_quick_agrees_with_finite_differences_and_reports_its_rat
     assert bench.report_markdown(res) in stdout
 
 
+@pytest.mark.slow
 def test_bench_build_quick_times_first_calls_of_models_never_built(tmp_path):
     res, stdout = _run("bench_build.py", tmp_path)
     bench = _script("bench_build")
@@ -168,6 +175,7 @@ def test_bench_build_quick_times_first_calls_of_models_never_built(tmp_path):
     assert bench.markdown(res) in stdout
 
 
+@pytest.mark.slow
 def test_bench_peers_quick_agrees_with_jax_and_reports_ratios(tmp_path):
     res, stdout = _run("bench_peers.py", tmp_path)
     bench = _script("bench_peers")
@@ -186,6 +194,7 @@ def test_bench_peers_quick_agrees_with_jax_and_reports_ratios(tmp_path):
     assert bench.markdown(res) in stdout
 
 
+@pytest.mark.slow
 def test_bench_training_quick_times_epochs_of_every_module_on_the_same_windows(tmp_path):
     res, stdout = _run("bench_training.py", tmp_path)
     bench = _script("bench_training")
@@ -198,6 +207,7 @@ def test_bench_training_quick_times_epochs_of_every_module_on_the_same_windows(t
     assert bench.markdown(res) in stdout
 
 
+@pytest.mark.slow
 def test_bench_tests_quick_runs_the_test_command_in_an_empty_cache(tmp_path):
     res, stdout = _run("bench_tests.py", tmp_path)
     assert res["returncode"] == 0 and "1 passed" in res["summary"] and res["models_built"] == 0

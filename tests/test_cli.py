@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import subprocess
@@ -274,10 +275,23 @@ def test_unset_values_interpolations_and_a_top_level_select_are_one_line(tmp_pat
      "config key discover.max_step (added with '+') is not one hybridhyst-discover reads: it would be ignored; did "
      "you mean discover.max_steps?"),
 ])
-def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expected, tmp_path):
-    proc = _cli(f"hybridhyst.cli.{app}", tmp_path, *([override] if isinstance(override, str) else override))
-    lines = [line for line in proc.stderr.splitlines() if line.strip()]
-    assert proc.returncode == 2 and len(lines) == 1, proc.stderr
+def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expected, tmp_path, capfd, monkeypatch):
+    """The app's own ``main()`` with the command line in ``sys.argv``, in this process (a subprocess each cost
+    ~5 s of imports; ``test_cli_value_error_is_one_line_and_exit_code_2`` and ``test_cli_missing_data_file...``
+    keep the whole process path)."""
+    from hydra.core.global_hydra import GlobalHydra
+
+    overrides = [override] if isinstance(override, str) else list(override)
+    monkeypatch.setattr(sys, "argv", [f"hybridhyst-{app}", f"hydra.run.dir={tmp_path}", "progress=false", *overrides])
+    monkeypatch.delenv("HYBRIDHYST_TRACEBACK", raising=False)
+    monkeypatch.chdir(tmp_path)
+    try:
+        with pytest.raises(SystemExit) as exc:
+            importlib.import_module(f"hybridhyst.cli.{app}").main()
+    finally:
+        GlobalHydra.instance().clear()
+    lines = [line for line in capfd.readouterr().err.splitlines() if line.strip()]
+    assert exc.value.code == 2 and len(lines) == 1, lines
     assert lines[0].startswith("error: ") and expected in lines[0], lines[0]
 
 

@@ -36,6 +36,7 @@ def test_the_readme_documents_fit_discover_and_train_with_the_control():
         assert "data.controls={voltage: voltage_v}" in overrides
 
 
+@pytest.mark.slow  # 19 s of the example's scipy generator; the committed CSV's checks below run by default
 def test_the_example_is_what_make_example_writes(tmp_path):
     written = example_script(EXAMPLE / "make_example.py").main(tmp_path / "mr.csv")
     assert written.read_bytes() == (EXAMPLE / "mr_damper_voltage.csv").read_bytes()

@@ -57,7 +57,8 @@ def test_seed001_loops_peak_torque_rises_with_pressure(float64):
     t = torch.arange(3 * 600 + 1, dtype=torch.float64) / (600 * 0.79)
     x = 10 * torch.sin(2 * math.pi * 0.79 * t)
     with torch.no_grad():
-        y = simulate(model, x.expand(2, -1), t=t, conditions={"pressure_mpa": [0.01, 0.09]}, substeps=2)
+        y = simulate(model, x.expand(2, -1), t=t, conditions={"pressure_mpa": [0.01, 0.09]}, substeps=2,
+                     backend="fast")
     peaks = y[:, 600:, 0].abs().max(dim=1).values
     assert peaks[0].item() == pytest.approx(19.0, abs=1.5)
     assert peaks[1].item() == pytest.approx(38.0, abs=2.0)
@@ -87,7 +88,7 @@ def test_seed003_piezo_output_at_80_volts_is_about_170_um(float64):
     t = torch.arange(2001, dtype=torch.float64) * 2e-5
     u = 80 * torch.clamp(t / 0.02, max=1.0)  # ramp to 80 V in 20 ms, then hold
     with torch.no_grad():
-        x = simulate(model, u[None], t=t, substeps=2)[0, :, 0]
+        x = simulate(model, u[None], t=t, substeps=2, backend="fast")[0, :, 0]
     assert x[-1].item() == pytest.approx(170.0, rel=0.05)
 
 
