@@ -4,6 +4,7 @@ saturation of the control, Spencer's MR damper; the compiled path equals the ref
 import math
 
 import numpy as np
+import pytest
 import torch
 
 from hybridhyst.physics.effects import EFFECTS
@@ -40,9 +41,9 @@ def test_every_control_effect_has_a_case():
 
 
 def test_fast_path_equals_reference_with_a_control(float64):
-    t = torch.arange(400) * 2e-4
-    x = 1.5 * torch.sin(2 * math.pi * 2.5 * t)[None].expand(2, -1)
-    _assert_agree(_spencer_model(), x, t, conditions={"voltage": _voltage(2, 400, 2e-4)}, substeps=4)
+    t = torch.arange(200) * 2e-4  # five voltage steps: the lag, the saturation and the damper's every branch
+    x = 1.5 * torch.sin(2 * math.pi * 2.5 * t + 1.0)[None].expand(2, -1)
+    _assert_agree(_spencer_model(), x, t, conditions={"voltage": _voltage(2, 200, 2e-4)}, substeps=4)
 
 
 def test_fast_path_equals_reference_for_an_oscillator_whose_damping_follows_a_control(float64):
@@ -74,12 +75,13 @@ def test_a_constant_control_gives_what_the_constant_condition_gives(float64):
     t = torch.arange(300) * 2e-4
     x = 1.5 * torch.sin(2 * math.pi * 2.5 * t)[None].expand(2, -1)
     level = torch.tensor([0.0, 1.5])
-    signal = simulate(model, x, t=t, conditions={"voltage": level[:, None].expand(-1, 300)}, substeps=4)
+    signal = simulate(model, x, t=t, conditions={"voltage": level[:, None].expand(-1, 300)}, substeps=4,
+                      backend="fast")
     plain = _spencer_model()
     del plain.effects["coil"], plain.effects["limit"]
     plain._init_layout(plain.effects)
     saturated = 3.0 * torch.tanh(level / 3.0)
-    constant = simulate(plain, x, t=t, conditions={"voltage": saturated}, substeps=4)
+    constant = simulate(plain, x, t=t, conditions={"voltage": saturated}, substeps=4, backend="fast")
     assert torch.allclose(signal, constant, rtol=1e-10, atol=1e-9)
 
 
@@ -156,3 +158,17 @@ def test_spencer_config_reproduces_an_independent_solution_of_the_paper_equation
                  backend="fast")[0, :, 0].detach().numpy()
     assert np.abs(y - expected).max() < 1e-4 * np.abs(expected).max()  # 7.7e-6 measured
     assert 1000 < np.abs(expected).max() < 2000  # N: the paper's damper, about ±1.5 kN at the highest voltages
+
+
+def test_a_function_of_a_control_says_which_effects_act_on_the_control_it_reads():
+    """A parameter after a lag and a saturation of the voltage follows what they pass on, not the measured voltage:
+    the parameter table says so (the function's config stays the plain one a program builds from)."""
+    table = _spencer_model().parameter_table()
+    alpha = table["damper"]["alpha"]
+    assert alpha["value"].endswith(", voltage after coil, limit") and alpha["function"]["condition"] == "voltage"
+    assert alpha["function"] == {"kind": "linear", "slope": 695.0, "intercept": 140.0, "condition": "voltage"}
+    assert table["limit"]["c_max"]["value"] == pytest.approx(3.0)  # a constant: a number
+    # an effect listed before the lag reads the measured voltage
+    early = Constitutive({"damper": EFFECTS["viscous"](c={**LINEAR, "intercept": 0.5, "slope": 2.0}),
+                          "coil": EFFECTS["control_lag"](control="voltage", eta=50.0)}).parameter_table()
+    assert "after" not in early["damper"]["c"]["value"]
