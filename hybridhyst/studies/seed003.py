@@ -149,14 +149,10 @@ def _training_tables(runs: TrainingRuns, o: dict, progress: bool) -> dict:
                     f"seed={sweep_values(int(s) for s in o['seeds'])}")
         bar.update()
         lam_table, lam = lambda_table(runs, o)
-        at_lam = (f"loss.lambda_phys={float(lam)!r}", f"seed={int(s0)}")
-        runs.launch("architectures", "hybrid", "sweep=architectures",
-                    f"residual.hidden={sweep_values(o['architectures'])}", *at_lam,
-                    runs=[("hybrid", h, lam, s0, 1.0) for h in o["architectures"]])
+        runs.launch_hybrid("architectures", "architectures", hidden=o["architectures"], lambdas=[lam], seeds=[s0])
         bar.update()
-        runs.launch("data_fraction_hybrid", "hybrid", "sweep=data_fraction", "residual.hidden=4x128", *at_lam,
-                    f"datamodule.train_fraction={fractions}",
-                    runs=[("hybrid", "4x128", lam, s0, f) for f in fraction_list])
+        runs.launch_hybrid("data_fraction_hybrid", "data_fraction", hidden=["4x128"], lambdas=[lam], seeds=[s0],
+                           fractions=fraction_list)
         bar.update()
         runs.launch("data_fraction_baselines", "mlp,lstm,std_pinn", "sweep=data_fraction", f"seed={int(s0)}",
                     f"datamodule.train_fraction={fractions}")

@@ -118,6 +118,19 @@ class TrainingRuns:
             raise RuntimeError(f"seed003 training sweep {name!r} failed (exit {proc.returncode}, log {log}): "
                                f"{errors or tail}")
 
+    def launch_hybrid(self, name: str, sweep: str, *, hidden, lambdas, seeds, fractions=(1.0,)) -> None:
+        """``launch`` of the hybrid over the grid ``hidden`` × ``lambdas`` × ``seeds`` × ``fractions``: the
+        command's swept values and the runs' keys come from the same lists (a run the folder holds already,
+        trained by an earlier multirun, starts no process). A fraction of 1.0 alone is the config's own."""
+        hidden, lambdas = list(hidden), [float(x) for x in lambdas]
+        seeds, fractions = [int(x) for x in seeds], [float(x) for x in fractions]
+        overrides = [f"sweep={sweep}", f"residual.hidden={sweep_values(hidden)}",
+                     f"loss.lambda_phys={sweep_values(lambdas)}", f"seed={sweep_values(seeds)}"]
+        if fractions != [1.0]:
+            overrides.append(f"datamodule.train_fraction={sweep_values(fractions)}")
+        self.launch(name, "hybrid", *overrides,
+                    runs=[("hybrid", h, x, s, f) for h in hidden for x in lambdas for s in seeds for f in fractions])
+
     def get(self, kind: str, hidden=None, lambda_phys=None, seed: int = 0, fraction: float = 1.0) -> dict:
         """One run's results: held-out predictions (``test``: one dict per record with t, x, y, y_pred,
         y_nominal), validation RMSE, training time, size, windows and the last epoch's physics loss. ``hidden``
