@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -285,11 +286,17 @@ def test_cli_composition_errors_are_one_line_and_exit_code_2(app, override, expe
     monkeypatch.setattr(sys, "argv", [f"hybridhyst-{app}", f"hydra.run.dir={tmp_path}", "progress=false", *overrides])
     monkeypatch.delenv("HYBRIDHYST_TRACEBACK", raising=False)
     monkeypatch.chdir(tmp_path)
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
     try:
         with pytest.raises(SystemExit) as exc:
             importlib.import_module(f"hybridhyst.cli.{app}").main()
-    finally:
+    finally:  # a case that reaches the run leaves Hydra's logging (a handler on this test's captured stdout)
         GlobalHydra.instance().clear()
+        for handler in set(root.handlers) - set(handlers):
+            root.removeHandler(handler)
+            handler.close()
+        root.setLevel(level)
     lines = [line for line in capfd.readouterr().err.splitlines() if line.strip()]
     assert exc.value.code == 2 and len(lines) == 1, lines
     assert lines[0].startswith("error: ") and expected in lines[0], lines[0]

@@ -165,7 +165,7 @@ def test_a_function_of_a_control_says_which_effects_act_on_the_control_it_reads(
     the parameter table says so (the function's config stays the plain one a program builds from)."""
     table = _spencer_model().parameter_table()
     alpha = table["damper"]["alpha"]
-    assert alpha["value"].endswith(", voltage after coil, limit") and alpha["function"]["condition"] == "voltage"
+    assert alpha["value"].endswith(", voltage after coil then limit") and alpha["function"]["condition"] == "voltage"
     assert alpha["function"] == {"kind": "linear", "slope": 695.0, "intercept": 140.0, "condition": "voltage"}
     assert table["limit"]["c_max"]["value"] == pytest.approx(3.0)  # a constant: a number
     # an effect listed before the lag reads the measured voltage

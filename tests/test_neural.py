@@ -30,7 +30,7 @@ def _neural(latent=2, conditions=True):
 
 
 def _inputs():
-    """One cycle (two reversals: the play engages both ways) of three amplitudes, 150 samples."""
+    """One cycle (two reversals: the play engages both ways) of three amplitudes, 151 samples."""
     t = torch.linspace(0.0, 1.0, 151)
     x = torch.stack([a * torch.sin(2 * torch.pi * t) for a in (0.5, 1.0, 1.5)])
     return t, x, {"p": torch.tensor([0.03, 0.05, 0.07])}

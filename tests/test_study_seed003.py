@@ -95,3 +95,31 @@ def test_full_study_ranks_the_models_on_the_held_out_cases(tmp_path):
         values = [v for v in summary[table].values() if isinstance(v, float)] + [
             x for v in summary[table].values() if isinstance(v, list) for x in v]
         assert values and all(math.isfinite(v) for v in values), table
+
+
+def test_the_hybrid_grid_gives_the_command_every_swept_value(tmp_path, monkeypatch):
+    """``TrainingRuns.launch_hybrid``: the multirun's command carries every list of the grid, a fraction of 1.0
+    alone included (``sweep=data_fraction`` would otherwise sweep its own five), and the same grid's runs are the
+    keys that spare a process where the folder holds them."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from hybridhyst.studies import seed003_runs as sr
+
+    calls = []
+    monkeypatch.setattr(sr.subprocess, "run", lambda cmd, **kw: calls.append(cmd) or SimpleNamespace(returncode=0))
+    monkeypatch.setattr(sr, "collect_runs", lambda folder: pd.DataFrame({"status": []}))
+    runs = sr.TrainingRuns.__new__(sr.TrainingRuns)
+    runs.folder, runs.base, runs.table, runs.used = tmp_path, [], None, {}
+    monkeypatch.setattr(runs, "_finished", lambda *key: False)
+    runs.launch_hybrid("one", "data_fraction", hidden=["4x128"], lambdas=[0.001], seeds=[0])
+    assert {"sweep=data_fraction", "residual.hidden='4x128'", "loss.lambda_phys=0.001", "seed=0",
+            "datamodule.train_fraction=1.0", "baseline=hybrid_mlp"} <= set(calls[-1]), calls[-1]
+    runs.launch_hybrid("grid", "architectures", hidden=["2x64", "4x128"], lambdas=[0.0], seeds=[1],
+                       fractions=[0.5, 1.0])
+    assert {"residual.hidden='2x64','4x128'", "datamodule.train_fraction=0.5,1.0"} <= set(calls[-1]), calls[-1]
+    asked = []
+    monkeypatch.setattr(runs, "_finished", lambda *key: asked.append(key) or True)  # the folder holds them all
+    runs.launch_hybrid("again", "architectures", hidden=["2x64", "4x128"], lambdas=[0.0], seeds=[1])
+    assert len(calls) == 2 and asked == [("hybrid", "2x64", 0.0, 1, 1.0), ("hybrid", "4x128", 0.0, 1, 1.0)]

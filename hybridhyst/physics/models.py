@@ -117,14 +117,14 @@ class NominalModel(nn.Module):
     def describe(self) -> dict[str, dict[str, dict[str, str]]]:
         """{effect: {parameter: {value, unit}}} with units rendered in the model's unit system. A function of a
         control that effects listed before (a lag, a saturation: ``Effect.transform``) pass on says so: its
-        value ends ", voltage after coil, limit"."""
+        value ends ", voltage after coil then limit"."""
         out = {key: effect.describe(self.units) for key, effect in self.effects.items()}
         passed: dict[str, list[str]] = {}  # control -> the keys of the effects that act on it so far
         for key, effect in self.effects.items():
             for pname, fn in effect.params.items():
                 condition = getattr(fn, "condition", None)
                 if condition in passed and pname in out[key]:
-                    out[key][pname]["value"] += f", {condition} after {', '.join(passed[condition])}"
+                    out[key][pname]["value"] += f", {condition} after {' then '.join(passed[condition])}"
             if type(effect).transform is not Effect.transform and getattr(effect, "control", None):
                 passed.setdefault(effect.control, []).append(key)
         if self.structure_params:

@@ -121,13 +121,13 @@ class TrainingRuns:
     def launch_hybrid(self, name: str, sweep: str, *, hidden, lambdas, seeds, fractions=(1.0,)) -> None:
         """``launch`` of the hybrid over the grid ``hidden`` × ``lambdas`` × ``seeds`` × ``fractions``: the
         command's swept values and the runs' keys come from the same lists (a run the folder holds already,
-        trained by an earlier multirun, starts no process). A fraction of 1.0 alone is the config's own."""
+        trained by an earlier multirun, starts no process). Every list is given on the command line: a sweep
+        config sweeps its own values of what it leaves out (``sweep=data_fraction``: five fractions)."""
         hidden, lambdas = list(hidden), [float(x) for x in lambdas]
         seeds, fractions = [int(x) for x in seeds], [float(x) for x in fractions]
         overrides = [f"sweep={sweep}", f"residual.hidden={sweep_values(hidden)}",
-                     f"loss.lambda_phys={sweep_values(lambdas)}", f"seed={sweep_values(seeds)}"]
-        if fractions != [1.0]:
-            overrides.append(f"datamodule.train_fraction={sweep_values(fractions)}")
+                     f"loss.lambda_phys={sweep_values(lambdas)}", f"seed={sweep_values(seeds)}",
+                     f"datamodule.train_fraction={sweep_values(fractions)}"]
         self.launch(name, "hybrid", *overrides,
                     runs=[("hybrid", h, x, s, f) for h in hidden for x in lambdas for s in seeds for f in fractions])
 
