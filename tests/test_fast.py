@@ -93,10 +93,12 @@ def test_fast_path_equals_reference_for_every_effect(structure, float64):
 
 
 # the newest effects and the delay alone (with a spring), at values that exercise every branch: the clearance's gap
-# opens and closes on each reversal and its bristle saturates both ways; the Maxwell element runs near its corner 1/τ
+# opens and closes on each reversal and its bristle saturates both ways; the Maxwell element runs near its corner 1/τ;
+# the relaxing play at λ = 0, where it is the plain play (tests/test_effects_operators.py, on the compiled path)
 ALONE = {
     "clearance": {"sigma0": 20.0, "Fc": 0.5, "a": -0.3, "r": 0.1},
     "maxwell": {"k_m": 2.0, "tau": 0.1},
+    "relaxing_backlash": {"r": 0.1, "lam": 0.0},
     "time_delay": {"tau": 0.013},
 }
 
