@@ -87,7 +87,7 @@ class Candidate:
 def _placed(model, key: str, effect: Effect):
     """Input operators (effects that transform the kinematics, e.g. backlash) go first; others last."""
     effects = dict(model.effects.items())
-    if type(effect).transform is not Effect.transform:
+    if effect.transforms:
         return model.with_effects({key: effect, **effects})
     return model.with_effects({**effects, key: effect})
 

@@ -125,7 +125,7 @@ class NominalModel(nn.Module):
                 condition = getattr(fn, "condition", None)
                 if condition in passed and pname in out[key]:
                     out[key][pname]["value"] += f", {condition} after {' then '.join(passed[condition])}"
-            if type(effect).transform is not Effect.transform and getattr(effect, "control", None):
+            if effect.transforms and getattr(effect, "control", None):
                 passed.setdefault(effect.control, []).append(key)
         if self.structure_params:
             out[STRUCTURE] = {

@@ -144,9 +144,7 @@ def _training_tables(runs: TrainingRuns, o: dict, progress: bool) -> dict:
     fractions = sweep_values(fraction_list)
     in_the_loop = bool(o.get("in_the_loop", True))
     with progress_bar(total=4 + in_the_loop, desc="seed003 training sweeps", enabled=progress) as bar:
-        runs.launch("lambda_phys", "hybrid", "sweep=lambda_phys", "residual.hidden=4x128",
-                    f"loss.lambda_phys={sweep_values(float(x) for x in o['lambdas'])}",
-                    f"seed={sweep_values(int(s) for s in o['seeds'])}")
+        runs.launch_hybrid("lambda_phys", "lambda_phys", hidden=["4x128"], lambdas=o["lambdas"], seeds=o["seeds"])
         bar.update()
         lam_table, lam = lambda_table(runs, o)
         runs.launch_hybrid("architectures", "architectures", hidden=o["architectures"], lambdas=[lam], seeds=[s0])

@@ -306,6 +306,12 @@ class Effect(nn.Module):
         """Kinematics seen by the effects listed after this one (input operators override)."""
         return kin
 
+    @property
+    def transforms(self) -> bool:
+        """Whether this effect changes what the effects listed after it see (``transform`` overridden: a play on
+        the input, a lag or saturation of a control)."""
+        return type(self).transform is not Effect.transform
+
     def input_delay(self, p: dict[str, torch.Tensor]) -> torch.Tensor | None:
         """Delay ``(batch,)`` [t] with which the structure reads its input, or None."""
         return None
