@@ -21,9 +21,12 @@ P parameters in ``th``; the Jacobian kernels hold every network's output fixed, 
 from __future__ import annotations
 
 import hashlib
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import sympy as sp
+from sympy.core import exprtools
 from sympy.printing.c import C99CodePrinter
 
 from .equations import Equations
@@ -110,8 +113,44 @@ def _kernel(name: str, args: list[str], targets: list[tuple[str, sp.Expr]], prin
 
 
 def _jac(exprs, wrt, name: str) -> list[tuple[str, sp.Expr]]:
-    """Targets ``name[i * len(wrt) + j]`` = d exprs[i] / d wrt[j] (a row-major matrix)."""
-    return [(f"{name}[{i * len(wrt) + j}]", sp.diff(e, w)) for i, e in enumerate(exprs) for j, w in enumerate(wrt)]
+    """Targets ``name[i * len(wrt) + j]`` = d exprs[i] / d wrt[j] (a row-major matrix); an entry whose symbol
+    the expression lacks is 0 without asking sympy (which walks the whole expression for it: most entries)."""
+    free = [sp.sympify(e).free_symbols for e in exprs]
+    return [(f"{name}[{i * len(wrt) + j}]", sp.diff(e, w) if w in free[i] else sp.S.Zero)
+            for i, e in enumerate(exprs) for j, w in enumerate(wrt)]
+
+
+_GCD_LOCK = threading.Lock()
+
+
+@contextmanager
+def _shared_gcd_terms():
+    """sympy's CSE preprocessing (``factor_terms``, part of ``optimizations="basic"``) calls ``gcd_terms`` on
+    every sum inside every expression it is given, again for each expression that holds the same sum: a model's
+    Jacobian entries share most of their sums (about 100 distinct of 8000 calls for the model of every effect).
+    While one model's source is generated, equal sums share one result: the same source, byte for byte, in
+    half the time of the largest models (``scripts/bench_build.py``). ``gcd_terms`` is a pure function of its
+    arguments; it is swapped in sympy's module for the duration (one generation at a time: the GIL serialises
+    sympy's work anyway)."""
+    original = exprtools.gcd_terms
+    done: dict = {}
+
+    def gcd_terms(terms, isprimitive=False, clear=True, fraction=True):
+        key = (terms, isprimitive, clear, fraction)
+        try:
+            return done[key]
+        except KeyError:
+            out = done[key] = original(terms, isprimitive, clear, fraction)
+            return out
+        except TypeError:  # an unhashable argument (a list or dict of terms)
+            return original(terms, isprimitive, clear, fraction)
+
+    with _GCD_LOCK:
+        exprtools.gcd_terms = gcd_terms
+        try:
+            yield
+        finally:
+            exprtools.gcd_terms = original
 
 
 def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
@@ -145,6 +184,11 @@ def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
 
 def generate_source(eq: Equations) -> str:
     """The C source of one model: runtime, sizes, the model's kernels, loops."""
+    with _shared_gcd_terms():
+        return _source(eq)
+
+
+def _source(eq: Equations) -> str:
     printer = _Printer()
     n_state, n_param, n_out = len(eq.state), len(eq.params), len(eq.outputs)
     args = ["s", "in", "th"]
