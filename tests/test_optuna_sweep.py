@@ -67,7 +67,9 @@ def test_the_job_returns_train_rmse_without_a_validation_split(tmp_path):
 
 
 def test_optuna_multirun_samples_trials_and_records_the_best_validation_rmse(tmp_path):
-    proc, out = _sweep(tmp_path, "split.val=[{pressure_mpa: [0.05]}]")  # 0.03 MPa trains, 0.05 validates
+    # 0.03 and 0.07 MPa train, 0.05 validates: with one training pressure the nominal's slopes in p are the search
+    # box's, and how the trained model extrapolates to the held-out 0.07 MPa (diverged on one machine) is chance
+    proc, out = _sweep(tmp_path, "split.val=[{pressure_mpa: [0.05]}]", "split.held_out=[]")
     assert proc.returncode == 0, proc.stderr[-3000:]
     jobs = sorted(p for p in out.iterdir() if p.is_dir())
     assert [p.name for p in jobs] == ["0", "1"]
