@@ -96,6 +96,37 @@ def first_call(make) -> dict:
             "networks": len(eq.networks)}
 
 
+def shared_sums(repeats: int = 2) -> dict:
+    """The every-effect models' C source generated with equal sums sharing one ``gcd_terms`` result
+    (``codegen._shared_gcd_terms``) and with sympy's own, alternating; seconds (best of ``repeats``) and whether
+    the two sources are the same."""
+    import contextlib
+
+    import sympy
+
+    from hybridhyst.simulate.fast import codegen
+    from hybridhyst.simulate.fast.equations import build_equations
+
+    out = {}
+    shared = codegen._shared_gcd_terms
+    for structure in ("constitutive", "oscillator"):
+        eq = build_equations(every_effect(structure).double())
+        times, sources = {"shared": [], "sympy": []}, {}
+        try:
+            for _ in range(repeats):
+                for how in times:
+                    codegen._shared_gcd_terms = shared if how == "shared" else contextlib.nullcontext
+                    sympy.core.cache.clear_cache()
+                    t0 = time.perf_counter()
+                    sources[how] = codegen.generate_source(eq)
+                    times[how].append(time.perf_counter() - t0)
+        finally:
+            codegen._shared_gcd_terms = shared
+        out[f"every effect ({structure})"] = {"shared_s": min(times["shared"]), "sympy_s": min(times["sympy"]),
+                                              "same_source": sources["shared"] == sources["sympy"]}
+    return out
+
+
 def side_by_side(makers: dict) -> dict:
     """All models built at once (``prebuild_models``) against the sum of their builds one after another."""
     from hybridhyst.simulate.fast import prebuild_models
@@ -148,10 +179,15 @@ def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
     torch.set_default_dtype(torch.float64)
     makers = models(quick)
     old = os.environ.get("HYBRIDHYST_CACHE")
-    res = {"cpu_cores": os.cpu_count(), "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
+    from bench_simulate import cpu_model
+
+    res = {"cpu_cores": os.cpu_count(), "cpu_model": cpu_model(),
+           "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
            "models": {name: first_call(make) for name, make in makers.items()}}
     res["side_by_side"] = side_by_side(makers)
     res["side_by_side"]["one_after_another_s"] = sum(m["values_s"] for m in res["models"].values())
+    if not quick:
+        res["shared_sums"] = shared_sums()
     if old is None:
         os.environ.pop("HYBRIDHYST_CACHE", None)
     else:
@@ -164,7 +200,9 @@ def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
 
 
 def markdown(res: dict) -> str:
-    lines = [f"A model never built before, in an empty cache ({res['cpu_cores']} CPU cores, load average at the start "
+    from bench_simulate import cores
+
+    lines = [f"A model never built before, in an empty cache ({cores(res)}, load average at the start "
              f"{res['load_average_at_start']}): seconds from the first `simulate(..., backend=\"fast\")` call to its "
              "values (equations, C source, compiler, load, a 200-step simulation) and to its first gradient.", "",
              "| model | states | parameters | first values [s] | first gradient [s] |", "|---|---|---|---|---|"]
@@ -173,6 +211,11 @@ def markdown(res: dict) -> str:
     s = res["side_by_side"]
     lines += ["", f"All {s['models']} built side by side (`prebuild_models`, one compiler process per core): "
                   f"{s['together_s']:.1f} s, against {s['one_after_another_s']:.1f} s one after another."]
+    for name, g in res.get("shared_sums", {}).items():
+        ratio = g["sympy_s"] / g["shared_s"]
+        lines += ["", f"{name}: its C source generated in {g['shared_s']:.2f} s with equal sums sharing one "
+                      f"`gcd_terms` result, {g['sympy_s']:.2f} s with sympy's own ({ratio:.2f}×; "
+                      f"the same source: {'yes' if g['same_source'] else '**no**'})."]
     if "main_job" in res:
         m = res["main_job"]
         lines += ["", f"The main job (`hybridhyst-discover`, bundled BRFD data) on an empty cache: "

@@ -38,6 +38,23 @@ BYTES_PER_SAMPLE_STEP = 160
 MIXTURE, PRESSURE = "1:3", 0.05
 
 
+def cpu_model() -> str:
+    """The processor's name (``model name`` in /proc/cpuinfo), else what ``platform`` knows: the blocks come from
+    more than one kind of 2-core machine."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def cores(res: dict) -> str:
+    """``2 CPU cores`` and, where the result recorded it, ``(the processor)``."""
+    return f"{res['cpu_cores']} CPU cores" + (f" ({res['cpu_model']})" if res.get("cpu_model") else "")
+
+
 def machine_info() -> dict:
     import subprocess
 
@@ -47,7 +64,7 @@ def machine_info() -> dict:
     gpu = torch.cuda.get_device_name(0) if torch.cuda.is_available() else "not measured (no GPU in this session)"
     return {
         "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-        "cpu_cores": os.cpu_count(), "torch": torch.__version__, "compiler": cc,
+        "cpu_cores": os.cpu_count(), "cpu_model": cpu_model(), "torch": torch.__version__, "compiler": cc,
         "numpy": np.__version__, "python": platform.python_version(), "torch_threads": torch.get_num_threads(),
         "fast_threads": row_threads(), "gpu": gpu,
         "load_average_at_start": [round(x, 2) for x in os.getloadavg()],

@@ -33,15 +33,20 @@ def run(quick: bool) -> dict:
         wall = time.perf_counter() - start
         built = len(list((Path(cache) / "fast").glob("hh_*.so")))
     lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
-    return {"cpu_cores": os.cpu_count(), "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
+    from bench_simulate import cpu_model
+
+    return {"cpu_cores": os.cpu_count(), "cpu_model": cpu_model(),
+            "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
             "command": " ".join(["python -m pytest -q", *target]), "returncode": done.returncode, "wall_s": wall,
             "models_built": built, "summary": lines[-1] if lines else "", "target_s": TARGET_S}
 
 
 def markdown(res: dict) -> str:
+    from bench_simulate import cores
+
     verdict = "met" if res["wall_s"] <= res["target_s"] and res["returncode"] == 0 else "**not met**"
-    return (f"The README's test command (`{res['command']}`) with an empty compile cache ({res['cpu_cores']} CPU "
-            f"cores, load average at the start {res['load_average_at_start']}): {res['wall_s']:.0f} s wall, "
+    return (f"The README's test command (`{res['command']}`) with an empty compile cache ({cores(res)}, "
+            f"load average at the start {res['load_average_at_start']}): {res['wall_s']:.0f} s wall, "
             f"{res['models_built']} models built on the way; the tests' summary: `{res['summary']}` "
             f"(target {res['target_s'] / 60:.0f} min: {verdict}).")
 
