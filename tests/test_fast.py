@@ -234,6 +234,56 @@ def test_tanh_in_the_equations_is_real_by_declaration_and_printed_as_c_tanh():
     assert _Printer().doprint(Tanh(x / 2)) == "tanh((1.0/2.0)*x)"
 
 
+def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writes_it(monkeypatch):
+    """Source generation shares ``gcd_terms`` results between equal sums (``codegen._shared_gcd_terms``) and writes
+    a Jacobian entry whose symbol the expression lacks as 0 without asking sympy: the C source must be the one
+    sympy's own functions give, sympy asked once per distinct sum, and its module left as it was (also when the
+    generation fails)."""
+    import contextlib
+
+    import sympy as sp
+    from sympy.core import exprtools
+
+    from hybridhyst.simulate.fast import codegen
+    from hybridhyst.simulate.fast.equations import build_equations
+
+    names = ["backlash", "bouc_wen", "lugre", "stribeck", "travel_drift"]  # a play, hysteresis, friction, a drift
+    eq = build_equations(Constitutive({n: EFFECTS[n](**EFFECT_VALUES[n]) for n in names}).double())
+    original = exprtools.gcd_terms
+
+    def generate(shared: bool) -> tuple[str, list]:
+        calls = []
+
+        def counting(terms, *args, **kwargs):
+            calls.append(terms)
+            return original(terms, *args, **kwargs)
+
+        with monkeypatch.context() as m:
+            m.setattr(exprtools, "gcd_terms", counting)
+            if not shared:
+                m.setattr(codegen, "_shared_gcd_terms", contextlib.nullcontext)
+                m.setattr(codegen, "_jac", lambda exprs, wrt, name: [
+                    (f"{name}[{i * len(wrt) + j}]", sp.diff(e, w))
+                    for i, e in enumerate(exprs) for j, w in enumerate(wrt)])
+            source = codegen.generate_source(eq)
+            assert exprtools.gcd_terms is counting  # put back as it was found
+        return source, calls
+
+    ours, asked = generate(shared=True)
+    theirs, asked_by_sympy = generate(shared=False)
+    assert ours == theirs
+    assert asked and len(asked) == len(set(asked)) < len(asked_by_sympy)
+    assert exprtools.gcd_terms is original
+
+    def boom(eq):
+        raise RuntimeError("generation failed")
+
+    monkeypatch.setattr(codegen, "_source", boom)
+    with pytest.raises(RuntimeError, match="generation failed"):
+        codegen.generate_source(eq)
+    assert exprtools.gcd_terms is original
+
+
 def test_no_c_compiler_is_one_clear_error(monkeypatch):
     from hybridhyst.simulate.fast import build
 
