@@ -275,6 +275,27 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
     assert asked and len(asked) == len(set(asked)) < len(asked_by_sympy)
     assert exprtools.gcd_terms is original
 
+    # two generations at once (as prebuild runs them in threads): the second waits while the first holds the swap,
+    # and sympy's own function is back after both (the second must not take the first's for sympy's)
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    inside, source = threading.Event(), codegen._source
+
+    def slow(eq):
+        inside.set()
+        time.sleep(0.3)
+        return source(eq)
+
+    monkeypatch.setattr(codegen, "_source", slow)
+    with ThreadPoolExecutor(2) as pool:
+        first = pool.submit(codegen.generate_source, eq)
+        inside.wait(10)
+        second = pool.submit(codegen.generate_source, eq)
+        assert first.result() == second.result() == ours
+    assert exprtools.gcd_terms is original
+
     def boom(eq):
         raise RuntimeError("generation failed")
 

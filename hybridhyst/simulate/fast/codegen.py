@@ -132,7 +132,6 @@ def _shared_gcd_terms():
     half the time of the largest models (``scripts/bench_build.py``). ``gcd_terms`` is a pure function of its
     arguments; it is swapped in sympy's module for the duration (one generation at a time: the GIL serialises
     sympy's work anyway)."""
-    original = exprtools.gcd_terms
     done: dict = {}
 
     def gcd_terms(terms, isprimitive=False, clear=True, fraction=True):
@@ -145,7 +144,8 @@ def _shared_gcd_terms():
         except TypeError:  # an unhashable argument (a list or dict of terms)
             return original(terms, isprimitive, clear, fraction)
 
-    with _GCD_LOCK:
+    with _GCD_LOCK:  # read and swapped under the lock: another thread's generation has put sympy's back
+        original = exprtools.gcd_terms
         exprtools.gcd_terms = gcd_terms
         try:
             yield
