@@ -296,6 +296,18 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
         assert first.result() == second.result() == ours
     assert exprtools.gcd_terms is original
 
+    # inside the swap, every call answers as sympy's own: other flags, a list of terms, sympy's evaluate switch
+    x, y, z = sp.symbols("x y z")
+    terms = 2 * x * y + 2 * x * z + 4 * x
+    with codegen._shared_gcd_terms():
+        shared = exprtools.gcd_terms
+        for flags in [(True, False, False), (False, True, True), (False, False, True)]:
+            assert shared(terms, *flags) == original(terms, *flags)
+        assert shared([x * y, x * z]) == original([x * y, x * z])
+        with sp.evaluate(False):
+            unevaluated = shared(terms, True, False, False)
+        assert shared(terms, True, False, False) == original(terms, True, False, False) != unevaluated
+
     def boom(eq):
         raise RuntimeError("generation failed")
 

@@ -120,22 +120,28 @@ def _jac(exprs, wrt, name: str) -> list[tuple[str, sp.Expr]]:
             for i, e in enumerate(exprs) for j, w in enumerate(wrt)]
 
 
-_GCD_LOCK = threading.Lock()
+_GCD_LOCK = threading.RLock()
 
 
 @contextmanager
 def _shared_gcd_terms():
     """sympy's CSE preprocessing (``factor_terms``, part of ``optimizations="basic"``) calls ``gcd_terms`` on
     every sum inside every expression it is given, again for each expression that holds the same sum: a model's
-    Jacobian entries share most of their sums (about 100 distinct of 8000 calls for the model of every effect).
-    While one model's source is generated, equal sums share one result: the same source, byte for byte, in
-    half the time of the largest models (``scripts/bench_build.py``). ``gcd_terms`` is a pure function of its
-    arguments; it is swapped in sympy's module for the duration (one generation at a time: the GIL serialises
-    sympy's work anyway)."""
+    Jacobian entries share most of their sums (about a hundred distinct in seven to eight thousand calls for the
+    models of every effect). While one model's source is generated, equal sums share one result: the same source,
+    byte for byte, in about half the time for the largest models (``scripts/bench_build.py``). ``gcd_terms`` is a
+    pure function of its arguments and of sympy's global ``evaluate`` / ``distribute`` switches (in the key); it is
+    swapped in sympy's module for the duration, under a lock (one generation at a time: the GIL serialises sympy's
+    work anyway), and serves only the generating thread: another thread's calls go to sympy's own."""
+    from sympy.core.parameters import global_parameters
+
     done: dict = {}
+    owner = threading.get_ident()
 
     def gcd_terms(terms, isprimitive=False, clear=True, fraction=True):
-        key = (terms, isprimitive, clear, fraction)
+        if threading.get_ident() != owner:
+            return original(terms, isprimitive, clear, fraction)
+        key = (terms, isprimitive, clear, fraction, global_parameters.evaluate, global_parameters.distribute)
         try:
             return done[key]
         except KeyError:
