@@ -41,7 +41,7 @@ def _cache_dir() -> Path:
 
 _MODULES: dict[str, object] = {}
 _LOCK = threading.Lock()
-# -O3 (HYBRIDHYST_OPT sets another level): the main job's warm run 0-7 % faster than at -O2 (by machine), each
+# -O3 (HYBRIDHYST_OPT sets another level): the main job's warm run up to 7 % faster than at -O2 (by run), each
 # model's build about 0.1-0.2 s slower, the same numbers (no fast-math, no FMA contraction on the baseline x86-64
 # target): scripts/bench_build.py --opt-levels
 OPT = os.environ.get("HYBRIDHYST_OPT", "-O3")
