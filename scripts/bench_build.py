@@ -179,11 +179,9 @@ def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
     torch.set_default_dtype(torch.float64)
     makers = models(quick)
     old = os.environ.get("HYBRIDHYST_CACHE")
-    from bench_simulate import cpu_model
+    from bench_simulate import machine_brief
 
-    res = {"cpu_cores": os.cpu_count(), "cpu_model": cpu_model(),
-           "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
-           "models": {name: first_call(make) for name, make in makers.items()}}
+    res = {**machine_brief(), "models": {name: first_call(make) for name, make in makers.items()}}
     res["side_by_side"] = side_by_side(makers)
     res["side_by_side"]["one_after_another_s"] = sum(m["values_s"] for m in res["models"].values())
     if not quick:

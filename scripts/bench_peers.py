@@ -168,8 +168,9 @@ def run(quick: bool) -> dict:
 
     torch.set_default_dtype(torch.float64)
     T, repeats, B_list = (128, 2, [1]) if quick else (8192, 5, [1, 16])
-    out = {"T": T, "fs_hz": FS, "rows": [], "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
-           "cpu_cores": os.cpu_count(), "torch": torch.__version__}
+    from bench_simulate import machine_brief
+
+    out = {"T": T, "fs_hz": FS, "rows": [], **machine_brief(), "torch": torch.__version__}
     model = boucwen_benchmark().double()
     out["rows"] = [_row(model, B, T, repeats) for B in B_list]
     return out

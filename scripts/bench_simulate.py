@@ -55,6 +55,12 @@ def cores(res: dict) -> str:
     return f"{res['cpu_cores']} CPU cores" + (f" ({res['cpu_model']})" if res.get("cpu_model") else "")
 
 
+def machine_brief() -> dict:
+    """Cores, processor and load at the start: what every benchmark's block states about its machine."""
+    return {"cpu_cores": os.cpu_count(), "cpu_model": cpu_model(),
+            "load_average_at_start": [round(x, 2) for x in os.getloadavg()]}
+
+
 def machine_info() -> dict:
     import subprocess
 
@@ -64,10 +70,9 @@ def machine_info() -> dict:
     gpu = torch.cuda.get_device_name(0) if torch.cuda.is_available() else "not measured (no GPU in this session)"
     return {
         "platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-        "cpu_cores": os.cpu_count(), "cpu_model": cpu_model(), "torch": torch.__version__, "compiler": cc,
+        **machine_brief(), "torch": torch.__version__, "compiler": cc,
         "numpy": np.__version__, "python": platform.python_version(), "torch_threads": torch.get_num_threads(),
         "fast_threads": row_threads(), "gpu": gpu,
-        "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
     }
 
 

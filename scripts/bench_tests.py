@@ -24,7 +24,10 @@ TARGET_S = 360.0  # the issue's bound for this run on CI's 2 cores
 
 
 def run(quick: bool) -> dict:
+    from bench_simulate import machine_brief
+
     target = ["-n", "0", "tests/test_identify_space.py", "-k", "logits"] if quick else []
+    machine = machine_brief()  # the load at the start, before the tests load the machine
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "HYBRIDHYST_CACHE": cache}
         start = time.perf_counter()
@@ -33,12 +36,8 @@ def run(quick: bool) -> dict:
         wall = time.perf_counter() - start
         built = len(list((Path(cache) / "fast").glob("hh_*.so")))
     lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
-    from bench_simulate import cpu_model
-
-    return {"cpu_cores": os.cpu_count(), "cpu_model": cpu_model(),
-            "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
-            "command": " ".join(["python -m pytest -q", *target]), "returncode": done.returncode, "wall_s": wall,
-            "models_built": built, "summary": lines[-1] if lines else "", "target_s": TARGET_S}
+    return {**machine, "command": " ".join(["python -m pytest -q", *target]), "returncode": done.returncode,
+            "wall_s": wall, "models_built": built, "summary": lines[-1] if lines else "", "target_s": TARGET_S}
 
 
 def markdown(res: dict) -> str:

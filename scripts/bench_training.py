@@ -15,7 +15,6 @@ available the same runs are repeated with ``trainer=gpu`` (GPU columns; "not mea
 
 from __future__ import annotations
 
-import os
 import statistics
 import sys
 import tempfile
@@ -76,8 +75,9 @@ def epoch_times(overrides: list[str], epochs: int, limit: float | None) -> tuple
 def run(quick: bool) -> dict:
     epochs, limit = (2, 0.34) if quick else (6, None)
     devices = ["cpu"] + (["gpu"] if torch.cuda.is_available() else [])
-    out = {"epochs": epochs, "cpu_cores": os.cpu_count(), "torch": torch.__version__,
-           "load_average_at_start": [round(x, 2) for x in os.getloadavg()],
+    from bench_simulate import machine_brief
+
+    out = {"epochs": epochs, **machine_brief(), "torch": torch.__version__,
            "gpu": torch.cuda.get_device_name(0) if torch.cuda.is_available() else None, "rows": {}}
     for name, overrides in MODULES.items():
         row = {}
