@@ -29,7 +29,7 @@ import math
 import os
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 
 from .cases import ALIASES, CASE_BY_NAME, Case
@@ -181,22 +181,24 @@ def _registered(name: str) -> Case | None:
     return blind_case(name)
 
 
-def _run_named(name: str, options: dict | None = None) -> dict:
-    return run_case(_registered(name), options)
+def _run_named(name: str, options: dict | None = None, task: Callable = run_case) -> dict:
+    return task(_registered(name), options)
 
 
 def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options: dict | None = None,
-            cost: dict[str, float] | None = None) -> list[dict]:
+            cost: dict[str, float] | None = None, task: Callable = run_case) -> list[dict]:
     """Run ``cases`` (from ``CASES``) on ``jobs`` worker processes (torch float64, one thread each); rows in
     the order of ``cases``. ``jobs`` ≤ 1 runs in this process (any cases, registered or not). ``options``:
     discover() keywords, the same for every case. ``cost``: expected seconds per case name (an earlier run's);
-    the workers take the costliest first, so that a long case does not start last (the rows keep their order)."""
+    the workers take the costliest first, so that a long case does not start last (the rows keep their order).
+    ``task``: what is run per case, ``task(case, options) -> row`` (a module-level function; default
+    ``run_case``; ``floor.case_floor`` measures a case's floor instead)."""
     cases = list(cases)
     if jobs <= 1:
         _init_worker()
         rows = []
         for case in cases:
-            rows.append(run_case(case, options))
+            rows.append(task(case, options))
             _report(rows[-1], progress)
         return rows
     unknown = [c.name for c in cases if _registered(c.name) is not c]
@@ -206,7 +208,7 @@ def run_bed(cases: Sequence[Case], jobs: int = 2, progress: bool = True, options
     out: dict[str, dict] = {}
     with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker) as pool:
         order = sorted(cases, key=lambda c: -(cost or {}).get(c.name, 0.0))  # stable: unknown costs keep their order
-        futures = {pool.submit(_run_named, c.name, options): c.name for c in order}
+        futures = {pool.submit(_run_named, c.name, options, task): c.name for c in order}
         for fut in _as_completed(futures):
             row = fut.result()
             out[row["name"]] = row
@@ -221,7 +223,9 @@ def _as_completed(futures):
 
 
 def _report(row: dict, progress: bool) -> None:
-    if progress:
+    if progress and "named" not in row:  # a row of another task (``floor.case_floor``)
+        print(f"{row['name']:>24}: {row.get('brief', '')} {row['wall_s']:.0f} s", flush=True)
+    elif progress:
         err = f" ERROR {row['error'].splitlines()[0]}" if row.get("error") else ""
         ratio = row.get("after_over_noise")
         print(f"{row['name']:>24}: named {row['named']} trends {row['trends']} ok={row['ok']} "

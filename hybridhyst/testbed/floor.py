@@ -1,0 +1,164 @@
+"""How low can a case's held-out error go with the library's structures? Each fitted to the scored records themselves.
+
+A case's held-out RMSE target (``run.RMSE_RATIO`` × noise) is reachable by the discovery loop only where some
+library structure reaches it. This module measures what the structures reach on the held-out records when they
+are *fitted to those records*: an in-sample error, which no model trained on other records can be expected to
+beat. Each held-out record is fitted alone (its parameters its own, so a parameter's dependence on the condition
+costs nothing): generous to every structure.
+
+On each held-out record (``record_floor``), with the loop's own machinery and defaults (``discover.loop.Loop``
+with that record as its only training record, the case's noise level):
+
+* ``nominal``: the nominal identified and converged as the loop does it (``Loop.nominal``);
+* ``effects``: the nominal with each library effect the loop offers, and each the case expects (offered or not),
+  fitted as the loop fits a candidate (``discover.fitting.fit_candidate``: search, re-balance, LM, step doubling);
+* ``expected``: the expected structure: for each family of ``Case.expected`` the best member, with its start state
+  where the effect has one (``discover.candidates.start_candidates``), the second family's members fitted on top
+  of the first's best. A clean or out-of-library case expects nothing: its expected structure is the nominal.
+
+``case_floor`` pools the records (RMSE over all their samples) and divides by the noise sd. A case whose best
+structure stays above the target even so cannot meet it with one library effect (or the expected pair); a case
+where the structure reaches it and the loop does not is the loop's miss.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import time
+
+from ..discover import discover
+from ..discover.candidates import effect_candidates, start_candidates
+from ..discover.fitting import at, fit_candidate, polish, prebuild
+from ..discover.loop import Loop
+from ..discover.settings import DiscoverSettings
+from ..physics.effects import EFFECTS
+from .cases import Case
+from .run import score
+
+__all__ = ["SEARCH", "case_floor", "record_floor"]
+
+SEARCH = 128  # points of each candidate's global search: more than the loop's 24, since a floor is a lower bound
+
+
+def _quiet(items, what=None, total=None):
+    return items
+
+
+def _loop(case: Case, record: str) -> Loop:
+    """The loop's state after its nominal phase, with ``record`` its only training record (every other record of
+    the case held out, so that a history carried between records is the one the record has in the case)."""
+    settings = DiscoverSettings(split={"held_out": lambda r: r.name != record}, noise_sd=case.noise,
+                                progress=False)
+    loop = Loop(case.records(), case.nominal(), settings)
+    loop.nominal()
+    return loop
+
+
+def _fitted(loop: Loop, cands, fit, search: int) -> dict:
+    """``{candidate name: Fit}`` of ``cands`` on ``fit``'s model, each fitted as the loop fits a candidate with
+    ``search`` points of its global search (and ``search // 8`` of them kept as starts); one that cannot be
+    simulated is left out."""
+    o, out = loop.options, {}
+    for cand in cands:
+        try:
+            f = fit_candidate(cand, fit.model, loop.train, at(loop.sim, fit), o.lm_steps, o.box_factor,
+                              search=search, keep=max(search // 8, 3))
+        except (ValueError, RuntimeError):
+            f = None
+        if f is not None:
+            out[cand.name] = f
+    return out
+
+
+def _with_start(loop: Loop, fit, key: str, search: int):
+    """``fit`` or, where it does better, the fit with effect ``key``'s start state fitted too."""
+    cands = [c for c in start_candidates(fit.model, loop.scales) if c.meta["key"] == key]
+    started = _fitted(loop, cands, fit, search)
+    return min([fit, *started.values()], key=lambda f: f.sse)
+
+
+def record_floor(case: Case, record: str, search: int = SEARCH, discovered=None) -> dict:
+    """SSEs on held-out ``record`` of ``case`` fitted to it: ``{"n", "nominal", "effects": {name: sse},
+    "expected": sse, "expected_structure": [names], "discovered": sse or None}`` (module docstring); an effect
+    that cannot be fitted is left out. ``search``: points of each candidate's global search (the loop's is 24);
+    ``discovered``: the model the loop ended with on the case's own split, refitted to the record from its values
+    (every coordinate, LM, step doubling: ``discover.fitting.polish``)."""
+    loop = _loop(case, record)
+    base = loop.fit
+    refitted = None
+    if discovered is not None:
+        o = loop.options
+        refitted = polish(copy.deepcopy(discovered), loop.train, loop.sim, o.lm_steps, o.box_factor).sse
+    wanted = sorted(set().union(*case.expected)) if case.expected else []
+    offered = [n for n in sorted(EFFECTS) if EFFECTS[n].discovery_candidate]
+    cands = effect_candidates(base.model, loop.scales, sorted(set(offered) | set(wanted)))
+    prebuild(cands, base.model)
+    fits = _fitted(loop, cands, base, search)
+    keys = {c.name: c.meta["key"] for c in cands}
+    best = None
+    for order in itertools.permutations(case.expected):  # both orders of a pair: the first fit shapes the second
+        structure, current = [], base
+        for i, fam in enumerate(order):
+            if i == 0:
+                members = {n: (fits[n], keys[n]) for n in fam if n in fits}
+            else:
+                more = effect_candidates(current.model, loop.scales, sorted(fam))
+                found = _fitted(loop, more, current, search)
+                members = {c.name: (found[c.name], c.meta["key"]) for c in more if c.name in found}
+            started = {n: _with_start(loop, f, key, search) for n, (f, key) in members.items()}
+            if not started:
+                break
+            name = min(started, key=lambda n: started[n].sse)
+            structure.append(name)
+            current = started[name]
+        if best is None or current.sse < best[1].sse:
+            best = (structure, current)
+    structure, current = best if best is not None else ([], base)
+    return {"n": loop.n_train, "nominal": base.sse, "effects": {n: f.sse for n, f in fits.items()},
+            "expected": current.sse, "expected_structure": structure, "discovered": refitted}
+
+
+def case_floor(case: Case, options: dict | None = None) -> dict:
+    """The floor of ``case``: each structure's RMSE over its held-out records, fitted to them, over the noise sd
+    (``nominal``, ``expected`` with its ``expected_structure``, ``best_effect`` and its ``best_effect_name``, and
+    ``effects`` per name), the held-out records, and the wall time; a case that fails gives a row with ``error``.
+    ``options``: ``search`` (``record_floor``); ``loop``: True to run the loop on the case first, as the bed does
+    (the library defaults), score it (``loop``: ``run.score``'s row) and refit its final model to each held-out
+    record (``discovered``)."""
+    options = dict(options or {})
+    if set(options) - {"search", "loop"}:
+        raise ValueError(f"case_floor takes the options 'search' and 'loop' only (given {sorted(options)})")
+    start = time.perf_counter()
+    try:
+        test = case.records().split(**case.split).test
+        scored = model = None
+        if options.pop("loop", False):
+            res = discover(case.records(), case.nominal(), split=case.split, noise_sd=case.noise, progress=False)
+            scored, model = score(case, res.report, time.perf_counter() - start), res.model
+        per = [record_floor(case, r.name, discovered=model, **options) for r in test]
+    except Exception as exc:  # a failure is a row of the table, not a reason to lose the other cases
+        return {"name": case.name, "category": case.category, "error": f"{type(exc).__name__}: {exc}",
+                "brief": "ERROR", "wall_s": time.perf_counter() - start}
+    n = sum(p["n"] for p in per)
+
+    def ratio(sses) -> float:
+        return math.sqrt(sum(sses) / n) / case.noise
+
+    common = set.intersection(*(set(p["effects"]) for p in per)) if per else set()
+    effects = {name: ratio(p["effects"][name] for p in per) for name in sorted(common)}
+    best = min(effects, key=effects.get) if effects else None
+    structures = {tuple(p["expected_structure"]) for p in per}
+    row = {"name": case.name, "category": case.category, "noise": case.noise,
+           "expected_families": [sorted(f) for f in case.expected], "records": [r.name for r in test], "samples": n,
+           "nominal": ratio(p["nominal"] for p in per),
+           "expected": ratio(p["expected"] for p in per),
+           "expected_structure": [list(s) for s in sorted(structures)],
+           "best_effect": effects.get(best) if best else None, "best_effect_name": best,
+           "effects": effects, "loop": scored,
+           "discovered": ratio(p["discovered"] for p in per) if scored is not None else None,
+           "wall_s": time.perf_counter() - start}
+    row["brief"] = (f"nominal {row['nominal']:.2f}, expected {row['expected']:.2f} x noise, best effect "
+                    f"{best} {row['best_effect'] or math.nan:.2f}")
+    return row
