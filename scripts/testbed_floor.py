@@ -7,9 +7,16 @@ records themselves (an in-sample error, each record with parameters of its own) 
 structure reaches it and the loop does not is the loop's miss. Writes the table into
 ``experiments/discovery_testbed/README.md`` (between the ``floor`` markers) and ``--json``.
 
-    PYTHONPATH=. python scripts/testbed_floor.py --beds blind,blind2 --json experiments/discovery_testbed/floor.json \\
-        --write-readme
+With ``--with-loop`` each case first runs through the loop as the bed runs it, and the loop's final model is
+refitted to the held-out records too: a miss where that refit reaches the target is one of generalisation (the
+structure is right, its parameters learnt on the other conditions do not carry over); where only another
+structure reaches it, one of selection.
+
+    PYTHONPATH=. python scripts/testbed_floor.py --beds blind,blind2 --with-loop \\
+        --json experiments/discovery_testbed/floor.json --write-readme        # about 20 min on 2 cores
     PYTHONPATH=. python scripts/testbed_floor.py --beds blind2 --cases b2_play_linkage_damper --jobs 1
+    PYTHONPATH=. python scripts/testbed_floor.py --beds blind,blind2 \\
+        --from-json experiments/discovery_testbed/floor.json --write-readme    # the tables again, no fits
 """
 
 from __future__ import annotations
@@ -52,7 +59,11 @@ def verdict(floor: dict, loop: dict | None, ratio: float) -> str:
         return "error"
     if loop is not None and loop.get("after_over_noise") is not None and loop["after_over_noise"] <= ratio:
         return "the loop meets it"
-    return "the loop's miss" if lowest(floor) <= ratio else "out of reach"
+    if lowest(floor) > ratio:
+        return "out of reach"
+    if floor.get("discovered") is not None and floor["discovered"] <= ratio:
+        return "the loop's miss: its model fits the record, not from the others (generalisation)"
+    return "the loop's miss" + (": another structure fits (selection)" if floor.get("discovered") is not None else "")
 
 
 def _f(v) -> str:
@@ -92,9 +103,11 @@ def tally(rows: list[dict], loops: dict[str, dict], ratio: float) -> dict:
     verdicts = [verdict(r, loops.get(r["name"]), ratio) for r in rows]
     effect_rows = [r for r in rows if r.get("expected_families")]
     return {"cases": len(rows),
-            "reachable": sum(v in ("the loop meets it", "the loop's miss") for v in verdicts),
+            "reachable": sum(v == "the loop meets it" or v.startswith("the loop's miss") for v in verdicts),
             "loop_meets": sum(v == "the loop meets it" for v in verdicts),
-            "loop_misses": sum(v == "the loop's miss" for v in verdicts),
+            "loop_misses": sum(v.startswith("the loop's miss") for v in verdicts),
+            "generalisation_misses": sum(v.endswith("(generalisation)") for v in verdicts),
+            "selection_misses": sum(v.endswith("(selection)") for v in verdicts),
             "out_of_reach": sum(v == "out of reach" for v in verdicts),
             "effect_cases": len(effect_rows),
             "expected_best": sum(singled_out(r) == "yes" for r in effect_rows),
@@ -124,6 +137,7 @@ def main(argv=None) -> dict:
                     help="run the loop on each case first (as the bed does) and refit its final model to the held-out "
                          "records too; the loop's columns then come from this run, not the committed tables")
     ap.add_argument("--search", type=int, help="points of each candidate's global search (default: floor.SEARCH)")
+    ap.add_argument("--from-json", metavar="PATH", help="write the tables of an earlier run's --json (no fits)")
     ap.add_argument("--write-readme", action="store_true", help=f"write the tables into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
     beds = args.beds.split(",")
@@ -139,13 +153,22 @@ def main(argv=None) -> dict:
         by_bed = {b: [c for c in cs if c.name in wanted] for b, cs in by_bed.items()}
     start = time.perf_counter()
     every = [c for cs in by_bed.values() for c in cs]
-    options = {**({"loop": True} if args.with_loop else {}), **({"search": args.search} if args.search else {})}
-    rows = {r["name"]: r for r in run_bed(every, jobs=args.jobs, task=case_floor, options=options or None)}
-    wall = time.perf_counter() - start
-    command = "PYTHONPATH=. python scripts/testbed_floor.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    parts, out = [], {"command": command.strip(), "date": when, "code": code_version(), "wall_s": wall,
-                      "jobs": args.jobs, "ratio": RMSE_RATIO, "beds": {}}
+    if args.from_json:  # the rows of that run, its header kept
+        earlier = json.loads(Path(args.from_json).read_text())
+        rows = {r["name"]: r for bed in earlier["beds"].values() for r in bed["rows"]}
+        args.with_loop = any(r.get("loop") for r in rows.values())
+        missing = [c.name for c in every if c.name not in rows]
+        if missing:
+            ap.error(f"{args.from_json} has no rows for {missing}")
+        header = {k: earlier[k] for k in ("command", "date", "code", "wall_s", "jobs")}
+    else:
+        options = {**({"loop": True} if args.with_loop else {}), **({"search": args.search} if args.search else {})}
+        rows = {r["name"]: r for r in run_bed(every, jobs=args.jobs, task=case_floor, options=options or None)}
+        command = "PYTHONPATH=. python scripts/testbed_floor.py " + " ".join(argv if argv is not None
+                                                                              else sys.argv[1:])
+        header = {"command": command.strip(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                  "code": code_version(), "wall_s": time.perf_counter() - start, "jobs": args.jobs}
+    parts, out = [], {**header, "ratio": RMSE_RATIO, "beds": {}}
     for bed, cases in by_bed.items():
         bed_rows = [rows[c.name] for c in cases]
         if args.with_loop:
@@ -161,13 +184,19 @@ def main(argv=None) -> dict:
                      f"{counts['cases']} cases, {counts['reachable']} have a structure that reaches {RMSE_RATIO} × "
                      f"noise fitted to the held-out records themselves (the loop's own result counted), "
                      f"{counts['out_of_reach']} do not; the loop meets the target in {counts['loop_meets']} and "
-                     f"misses it in {counts['loop_misses']}. In "
+                     f"misses it in {counts['loop_misses']}"
+                     + (f" ({counts['generalisation_misses']} where its own model refitted to the held-out records "
+                        f"reaches it, {counts['selection_misses']} where only another structure does)"
+                        if args.with_loop or any(r.get("discovered") is not None for r in bed_rows) else "")
+                     + ". In "
                      f"{counts['expected_best']} of {counts['effect_cases']} effect cases the expected effect is the "
                      f"best single library effect on the held-out records.\n\n"
                      + markdown(bed_rows, loops, RMSE_RATIO))
-    section = (f"Generated by `{out['command']}` ({when}; {out['code']}; {wall:.0f} s wall with {args.jobs} "
-               f"worker(s) on {os.cpu_count()} cores).\n\n" + "\n\n".join(parts))
-    if args.json:
+    section = (f"Generated by `{out['command']}` ({out['date']}; {out['code']}; {out['wall_s']:.0f} s wall with "
+               f"{out['jobs']} worker(s) on {os.cpu_count()} cores)"
+               + (f"; tables written from it by `PYTHONPATH=. python scripts/testbed_floor.py --beds {args.beds} "
+                  f"--from-json {args.from_json}`" if args.from_json else "") + ".\n\n" + "\n\n".join(parts))
+    if args.json and not args.from_json:
         Path(args.json).write_text(json.dumps(out, indent=2, default=str))
     if args.write_readme:
         write_readme(section)

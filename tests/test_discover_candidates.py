@@ -218,3 +218,42 @@ def test_the_terminal_names_structure_left_and_a_noise_estimate_a_coloured_resid
     assert "noise" not in " ".join(leftover_lines(given))
     white = {"unexplained": {"structure_flagged": False, "whiteness": {"lag_1": 0.05}}, "noise": coloured["noise"]}
     assert leftover_lines(white) == []
+
+
+def test_a_constant_the_nominal_pushed_to_an_edge_follows_it_once_the_missing_effect_is_in(float64):
+    """``fitting._followed``: friction that falls with speed (numpy: a Gaussian Stribeck drop, an arctan sign) makes
+    the best damping of a nominal without it small (here it starts, as a user declares it, at 0.02 and its first
+    fit ends at the box's floor, 0.002). The Stribeck candidate's fit boxes each fitted constant ``box_factor``
+    about its value: without following that edge the damping stays at 0.02 and the error far above the noise;
+    followed, it returns to its value and the error to the noise. A fit whose constants end inside their boxes is
+    not touched."""
+    from hybridhyst.discover.candidates import effect_candidates
+    from hybridhyst.discover.fitting import EDGE_PASSES, fit_candidate, polish
+    from hybridhyst.physics.effects import Coulomb, LinearStiffness, Viscous
+    from hybridhyst.physics.models import Constitutive
+
+    rng = np.random.default_rng(5)
+    noise, records = 0.01, []
+    for amp, f in ((0.5, 0.05), (0.75, 0.2)):  # slow sines at 50 Hz, one cycle each
+        t = np.arange(0, 1 / f, 1 / 50)
+        x, v = amp * np.sin(2 * np.pi * f * t), 2 * np.pi * f * amp * np.cos(2 * np.pi * f * t)
+        level = 1.2 + 0.8 * np.exp(-((v / 0.15) ** 2))
+        y = 3 * x + 0.4 * v + level * (2 / np.pi) * np.arctan(v / 0.002) + noise * rng.standard_normal(len(t))
+        records.append(Record(f"a{amp}", t, x, y, conditions={"amplitude": amp}))
+    model = Constitutive({"spring": LinearStiffness(k=3.0), "viscous": Viscous(c=0.02),
+                          "coulomb": Coulomb(Fc=1.0, v_s=0.002)}).double()
+    sim = SimulationSettings()
+    fit = polish(model, records, sim, 25, 10.0)
+    assert fit.coords["viscous.c"] == pytest.approx(0.002, rel=1e-3)  # at the floor of its box
+    (cand,) = effect_candidates(fit.model, Scales.of(records), ["stribeck"])
+    n = sum(len(r) for r in records)
+    got = fit_candidate(cand, fit.model, records, sim, 25, 10.0)
+    assert got.coords["viscous.c"] == pytest.approx(0.4, rel=0.1) and math.sqrt(got.sse / n) < 1.5 * noise
+    import hybridhyst.discover.fitting as fitting
+
+    try:  # the same fit without following the edge: the damping held at its box's top
+        fitting.EDGE_PASSES = 0
+        held = fit_candidate(cand, fit.model, records, sim, 25, 10.0)
+    finally:
+        fitting.EDGE_PASSES = EDGE_PASSES
+    assert held.coords["viscous.c"] == pytest.approx(0.02, rel=1e-3) and math.sqrt(held.sse / n) > 3 * noise

@@ -279,3 +279,55 @@ def test_the_bed_script_runs_every_case_with_the_settings_given_and_keeps_the_re
     for bad in (["--cross-check", "report"], ["--validation", "loco"], ["--no-start-states"]):
         with pytest.raises(SystemExit):
             script.main(["--cases", "viscous", "--write-readme", *bad])
+
+
+# -- (f) the floor: each structure fitted to the held-out records themselves ------------------------------------------
+
+
+def test_the_floor_fits_each_structure_to_the_held_out_records_themselves():
+    """``floor.case_floor``: the nominal, every offered effect and the expected structure, each fitted to the
+    held-out record alone (the loop's own nominal phase and candidate fits, that record its only training record,
+    every other record held out so that a history carried between records stays the case's). On a single-effect
+    case the expected effect is the best single effect and reaches the noise where the nominal does not; an
+    unknown option is an error; ``run_bed`` runs it as its task."""
+    import torch
+
+    from hybridhyst.testbed import floor
+    from hybridhyst.testbed.cases import CASE_BY_NAME
+    from hybridhyst.testbed.run import RMSE_RATIO, run_bed
+
+    case = CASE_BY_NAME["maxwell"]
+    test = case.records().split(**case.split).test
+    old = torch.get_default_dtype()
+    try:
+        loop = floor._loop(case, test[0].name)
+        assert [r.name for r in loop.train] == [test[0].name] and test[0].name not in [r.name for r in loop.test]
+        [row] = run_bed([case], jobs=1, progress=False, task=floor.case_floor, options={"search": 24})
+        with pytest.raises(ValueError, match="takes the options 'search' and 'loop' only"):
+            floor.case_floor(case, {"validation": "loco"})
+    finally:
+        torch.set_default_dtype(old)
+    assert row["records"] == [r.name for r in test] and row["samples"] == sum(len(r) for r in test)
+    assert row["expected_structure"] == [["maxwell"]] and row["best_effect_name"] == "maxwell", row
+    assert row["expected"] <= RMSE_RATIO < 2 * RMSE_RATIO < row["nominal"], row
+    assert row["expected"] <= row["effects"]["maxwell"] + 1e-12  # its start state can only help
+    assert row["discovered"] is None and row["loop"] is None
+
+
+def test_the_loops_own_model_refitted_to_a_held_out_record_is_no_worse_than_its_prediction():
+    """``case_floor(..., {"loop": True})`` runs the loop as the bed does and refits its final model to the
+    held-out records from its values: an in-sample fit that starts at the prediction can only lower the error."""
+    import torch
+
+    from hybridhyst.testbed import floor
+    from hybridhyst.testbed.cases import CASE_BY_NAME
+
+    old = torch.get_default_dtype()
+    try:
+        torch.set_default_dtype(torch.float64)
+        row = floor.case_floor(CASE_BY_NAME["linear_stiffness"], {"loop": True, "search": 24})
+    finally:
+        torch.set_default_dtype(old)
+    assert row["loop"]["named"] == ["linear_stiffness"] and row["loop"]["ok"], row["loop"]
+    assert row["discovered"] <= row["loop"]["after_over_noise"] * (1 + 1e-6), row
+    assert row["discovered"] <= 1.2

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import torch
 
+from ..identify.identify import at_bounds
 from ..identify.problem import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
@@ -23,6 +24,9 @@ __all__ = ["Fit", "at", "fit_candidate", "fit_candidates", "polish", "prebuild",
            "side_by_side", "sse_at"]
 
 MAX_SUBSTEPS = 16  # the step-doubling check stops here
+EDGE_PASSES = 3  # a fitted constant a candidate's fit leaves at an edge of its box is followed at most this often
+EDGE_GAIN = 0.99  # ... and only while a pass lowers the cost by at least 1 % within its first EDGE_PROBE iterations
+EDGE_PROBE = 5
 LM_RTOL = 1e-6  # a row whose Gauss–Newton step gains less than this (relative) is converged and simulated no more
 
 
@@ -162,8 +166,41 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     lm = converged_lm(problem, space, starts, lm_steps)
     if not math.isfinite(lm.cost):
         return None
-    fit = resolve(space, train, sim, lm.x, lm_steps)
+    space, x = _followed(space, candidate, train, sim, lm, lm_steps, box_factor)
+    fit = resolve(space, train, sim, x, lm_steps)
     return fit if fit is not None and math.isfinite(fit.sse) else None
+
+
+def _followed(space: SearchSpace, candidate, train, sim, lm, lm_steps: int, box_factor: float):
+    """``(space, x)`` of a candidate's fit after following the edges of its box. The fitted constants' boxes are
+    ``box_factor`` about their values before the candidate: one the nominal pushed to an edge to stand in for the
+    missing effect (a damping driven to its floor because friction falls with speed) cannot return to its value
+    once that effect is in. While such a constant ends at an edge, the fit continues (LM from its end) in boxes
+    centred on the values reached, the candidate's own boxes kept, while a pass lowers the cost by at least 1 %
+    (``EDGE_GAIN``) in its first ``EDGE_PROBE`` iterations (then it runs until converged), at most ``EDGE_PASSES``
+    passes (identify's ``recentre`` does the same for a first fit)."""
+    constants = {c.name for c in space.coordinates if c.name == f"{c.effect}.{c.param}"}
+    x, cost = lm.x, lm.cost
+    for _ in range(EDGE_PASSES):
+        edges = [n for n in at_bounds(space, x) if n in constants and n not in candidate.free]
+        if not edges:
+            break
+        space.to_model(x)
+        wider = _space(space.model, train, bounds=candidate.bounds, factor=box_factor)
+        x0 = wider.initial().clamp(wider.lower, wider.upper)
+        if all(n in at_bounds(wider, x0) for n in edges):  # a domain's own limit: no box can move past it
+            break
+        problem = _problem(wider, train, sim, sim.substeps)
+        # a few iterations first: most edges are a constant the new element made redundant, running off towards
+        # zero for next to nothing, and are left there at the cost of those iterations alone
+        probe = levenberg_marquardt(problem.residuals, wider, x0[None], iters=EDGE_PROBE, progress=False,
+                                    jacobian_rows=problem.jacobian_rows, rtol=LM_RTOL)
+        if not (math.isfinite(probe.cost) and probe.cost < EDGE_GAIN * cost):
+            break
+        again = converged_lm(problem, wider, probe.X, lm_steps)
+        space, x, cost = wider, again.x, again.cost
+    space.to_model(x)
+    return space, x
 
 
 def polish(model, train, sim, lm_steps: int, box_factor: float, step_doubling: bool = True) -> Fit:
