@@ -31,6 +31,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # its sibling discovery_testbed, loaded from anywhere
 
 from discovery_testbed import code_version  # noqa: E402  (the commit the rows come from)
 
@@ -55,10 +56,12 @@ def lowest(floor: dict) -> float:
 def verdict(floor: dict, loop: dict | None, ratio: float) -> str:
     """What the floor says of the case's held-out target: the loop meets it; or some structure fitted to the
     held-out records reaches it and the loop misses it; or none does (the target is out of reach)."""
-    if floor.get("error"):
-        return "error"
     if loop is not None and loop.get("after_over_noise") is not None and loop["after_over_noise"] <= ratio:
         return "the loop meets it"
+    if floor.get("error"):
+        return "error"
+    if loop is None:
+        return "no loop result"
     if lowest(floor) > ratio:
         return "out of reach"
     if floor.get("discovered") is not None and floor["discovered"] <= ratio:
@@ -90,8 +93,7 @@ def markdown(rows: list[dict], loops: dict[str, dict], ratio: float) -> str:
             lines.append(f"| {r['name']} | {r['category']} | {named} | {_f(loop and loop.get('after_over_noise'))} "
                          f"| error: {r['error'].splitlines()[0]} | | | | | error |")
             continue
-        structure = " + ".join(r["expected_structure"][0]) if r["expected_structure"] and r["expected_structure"][0] \
-            else "the nominal"
+        structure = " / ".join(" + ".join(st) or "the nominal" for st in r["expected_structure"]) or "the nominal"
         lines.append(f"| {r['name']} | {r['category']} | {named} | {_f(loop and loop.get('after_over_noise'))} "
                      f"| {_f(r['nominal'])} | {_f(r['expected'])} ({structure}) | {_f(r['best_effect'])} "
                      f"({r['best_effect_name']}) | {singled_out(r)} | {_f(r.get('discovered'))} "
@@ -111,7 +113,7 @@ def tally(rows: list[dict], loops: dict[str, dict], ratio: float) -> dict:
             "out_of_reach": sum(v == "out of reach" for v in verdicts),
             "effect_cases": len(effect_rows),
             "expected_best": sum(singled_out(r) == "yes" for r in effect_rows),
-            "errors": sum(v == "error" for v in verdicts)}
+            "errors": sum(v == "error" for v in verdicts), "no_loop": sum(v == "no loop result" for v in verdicts)}
 
 
 def write_readme(section: str, path: Path = README) -> None:
@@ -160,14 +162,17 @@ def main(argv=None) -> dict:
         missing = [c.name for c in every if c.name not in rows]
         if missing:
             ap.error(f"{args.from_json} has no rows for {missing}")
-        header = {k: earlier[k] for k in ("command", "date", "code", "wall_s", "jobs")}
+        header = {k: earlier.get(k) for k in ("command", "date", "code", "wall_s", "jobs", "cores")}
+        if args.json:
+            ap.error("--from-json writes no JSON: the rows are that file's")
     else:
         options = {**({"loop": True} if args.with_loop else {}), **({"search": args.search} if args.search else {})}
         rows = {r["name"]: r for r in run_bed(every, jobs=args.jobs, task=case_floor, options=options or None)}
         command = "PYTHONPATH=. python scripts/testbed_floor.py " + " ".join(argv if argv is not None
                                                                               else sys.argv[1:])
         header = {"command": command.strip(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                  "code": code_version(), "wall_s": time.perf_counter() - start, "jobs": args.jobs}
+                  "code": code_version(), "wall_s": time.perf_counter() - start, "jobs": args.jobs,
+                  "cores": os.cpu_count()}
     parts, out = [], {**header, "ratio": RMSE_RATIO, "beds": {}}
     for bed, cases in by_bed.items():
         bed_rows = [rows[c.name] for c in cases]
@@ -185,6 +190,8 @@ def main(argv=None) -> dict:
                      f"noise fitted to the held-out records themselves (the loop's own result counted), "
                      f"{counts['out_of_reach']} do not; the loop meets the target in {counts['loop_meets']} and "
                      f"misses it in {counts['loop_misses']}"
+                     + (f"; {counts['errors']} failed" if counts["errors"] else "")
+                     + (f"; {counts['no_loop']} have no row in the loop's table" if counts["no_loop"] else "")
                      + (f" ({counts['generalisation_misses']} where its own model refitted to the held-out records "
                         f"reaches it, {counts['selection_misses']} where only another structure does)"
                         if args.with_loop or any(r.get("discovered") is not None for r in bed_rows) else "")
@@ -193,9 +200,10 @@ def main(argv=None) -> dict:
                      f"best single library effect on the held-out records.\n\n"
                      + markdown(bed_rows, loops, RMSE_RATIO))
     section = (f"Generated by `{out['command']}` ({out['date']}; {out['code']}; {out['wall_s']:.0f} s wall with "
-               f"{out['jobs']} worker(s) on {os.cpu_count()} cores)"
+               f"{out['jobs']} worker(s) on {out.get('cores') or '?'} cores)"
                + (f"; tables written from it by `PYTHONPATH=. python scripts/testbed_floor.py --beds {args.beds} "
-                  f"--from-json {args.from_json}`" if args.from_json else "") + ".\n\n" + "\n\n".join(parts))
+                  + (f"--cases {args.cases} " if args.cases else "") + f"--from-json {args.from_json}`"
+                  if args.from_json else "") + ".\n\n" + "\n\n".join(parts))
     if args.json and not args.from_json:
         Path(args.json).write_text(json.dumps(out, indent=2, default=str))
     if args.write_readme:

@@ -1,6 +1,7 @@
 """Fits inside the discovery loop: a candidate's refit (global search over its new coordinates, re-balance,
-joint Levenberg–Marquardt until converged), the polish of the current model, and the step-doubling check
-that the simulator resolves a fitted model at the sample rate of the data.
+joint Levenberg–Marquardt until converged, a fitted constant followed past the edge of its box), the polish of
+the current model, and the step-doubling check that the simulator resolves a fitted model at the sample rate of
+the data.
 """
 
 from __future__ import annotations
@@ -144,7 +145,9 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
     2. *Re-balance*: from every start, ``lm_steps // 2`` LM iterations move only the fitted
        coordinates (a new element's stiffness is given up by the old spring), so the joint fit starts near
        the fitted response instead of in another basin.
-    3. *Joint LM* from those rows, continued until converged; then the step-doubling check (``resolve``).
+    3. *Joint LM* from those rows, continued until converged.
+    4. *Edges followed*: a fitted constant left at an edge of its box is followed (``_followed``); then the
+       step-doubling check (``resolve``).
     """
     aug = candidate.build(model)
     space = _space(aug, train, bounds=candidate.bounds, factor=box_factor)
@@ -186,18 +189,21 @@ def _followed(space: SearchSpace, candidate, train, sim, lm, lm_steps: int, box_
         if not edges:
             break
         space.to_model(x)
-        wider = _space(space.model, train, bounds=candidate.bounds, factor=box_factor)
-        x0 = wider.initial().clamp(wider.lower, wider.upper)
-        if all(n in at_bounds(wider, x0) for n in edges):  # a domain's own limit: no box can move past it
-            break
-        problem = _problem(wider, train, sim, sim.substeps)
-        # a few iterations first: most edges are a constant the new element made redundant, running off towards
-        # zero for next to nothing, and are left there at the cost of those iterations alone
-        probe = levenberg_marquardt(problem.residuals, wider, x0[None], iters=EDGE_PROBE, progress=False,
-                                    jacobian_rows=problem.jacobian_rows, rtol=LM_RTOL)
-        if not (math.isfinite(probe.cost) and probe.cost < EDGE_GAIN * cost):
-            break
-        again = converged_lm(problem, wider, probe.X, lm_steps)
+        try:
+            wider = _space(space.model, train, bounds=candidate.bounds, factor=box_factor)
+            x0 = wider.initial().clamp(wider.lower, wider.upper)
+            if all(n in at_bounds(wider, x0) for n in edges):  # a domain's own limit: no box can move past it
+                break
+            problem = _problem(wider, train, sim, sim.substeps)
+            # a few iterations first: most edges are a constant the new element made redundant, running off
+            # towards zero for next to nothing, and are left there at the cost of those iterations alone
+            probe = levenberg_marquardt(problem.residuals, wider, x0[None], iters=EDGE_PROBE, progress=False,
+                                        jacobian_rows=problem.jacobian_rows, rtol=LM_RTOL)
+            if not (math.isfinite(probe.cost) and probe.cost < EDGE_GAIN * cost):
+                break
+            again = converged_lm(problem, wider, probe.X, lm_steps)
+        except (ValueError, RuntimeError):  # a box that cannot be built or a pass that cannot be simulated: the
+            break  # fit before it stands
         space, x, cost = wider, again.x, again.cost
     space.to_model(x)
     return space, x

@@ -135,10 +135,11 @@ def _trend_condition(step: str) -> str | None:
     return cond if sep and (head == "trends" or "." in head) else None
 
 
-def run_case(case: Case, options: dict | None = None) -> dict:
+def run_case(case: Case, options: dict | None = None, keep_model: bool = False) -> dict:
     """Generate the case's data, run discovery with the library defaults (``options``: discover() keywords
     given to every case alike, e.g. ``{"validation": "loco"}``), score it. A failure gives a row with
-    ``error`` set (and every criterion False) instead of raising."""
+    ``error`` set (and every criterion False) instead of raising. ``keep_model``: the row carries the final model
+    too (``"model"``; not JSON: for a caller that uses it, ``floor.case_floor``)."""
     import torch
 
     from ..discover import discover
@@ -149,7 +150,8 @@ def run_case(case: Case, options: dict | None = None) -> dict:
         records = case.records()
         nominal = case.nominal()
         res = discover(records, nominal, split=case.split, noise_sd=case.noise, progress=False, **(options or {}))
-        return score(case, res.report, time.perf_counter() - start)
+        row = score(case, res.report, time.perf_counter() - start)
+        return {**row, "model": res.model} if keep_model else row
     except Exception as exc:  # a crash is a result of the bed, not a reason to lose the other cases
         return {"name": case.name, "category": case.category, "description": case.description,
                 "samples_per_cycle": case.samples_per_cycle, "noise_kind": case.noise_kind, "noise": case.noise,
