@@ -305,7 +305,7 @@ def test_the_floor_fits_each_structure_to_the_held_out_records_themselves():
         assert [r.name for r in loop.train] == [test[0].name] and test[0].name not in [r.name for r in loop.test]
         carried = {r.name: r.conditions[TRAVEL_BEFORE] for r in with_travel_before(case.records())}
         assert loop.train[0].conditions[TRAVEL_BEFORE] == carried[test[0].name] > 0  # the travel the case gives it
-        assert loop.scales.travel == max(carried.values())
+        assert loop.scales.travel == carried[test[0].name]  # the scale of the carried travel, as the loop takes it
         [row] = run_bed([case], jobs=1, progress=False, task=floor.case_floor, options={"search": 24})
         with pytest.raises(ValueError, match="takes the options 'search' and 'loop' only"):
             floor.case_floor(case, {"validation": "loco"})
