@@ -27,7 +27,8 @@ sys.path.insert(0, str(ROOT))
 README = ROOT / "experiments" / "discovery_testbed" / "README.md"
 MARKERS = {"first": ("<!-- results:start -->", "<!-- results:end -->"),
            "blind": ("<!-- blind:start -->", "<!-- blind:end -->"),
-           "blind2": ("<!-- blind2:start -->", "<!-- blind2:end -->")}
+           "blind2": ("<!-- blind2:start -->", "<!-- blind2:end -->"),
+           "floor": ("<!-- floor:start -->", "<!-- floor:end -->")}  # the floor's tables (scripts/testbed_floor.py)
 
 
 def write_readme(section: str, path: Path = README, bed: str = "first") -> None:

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import time
@@ -33,10 +32,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its sibling discovery_testbed, loaded from anywhere
 
-from discovery_testbed import code_version  # noqa: E402  (the commit the rows come from)
+from discovery_testbed import README, code_version, write_readme  # noqa: E402  (the commit, the README's sections)
 
-README = ROOT / "experiments" / "discovery_testbed" / "README.md"
-MARKERS = ("<!-- floor:start -->", "<!-- floor:end -->")
+from hybridhyst.testbed.run import _f  # noqa: E402  (a number of the bed's tables, or "—")
+
 LOOP_TABLES = {"first": "testbed.json", "blind": "blind.json", "blind2": "blind2.json"}  # the loop's committed rows
 TITLES = {"first": "the first bed", "blind": "the blind bed", "blind2": "the second blind bed"}
 
@@ -53,6 +52,10 @@ def lowest(floor: dict) -> float:
     return min(v for k in ("nominal", "expected", "best_effect", "discovered") if (v := floor.get(k)) is not None)
 
 
+def _f2(v) -> str:
+    return _f(v, "{:.2f}")
+
+
 def verdict(floor: dict, loop: dict | None, ratio: float) -> str:
     """What the floor says of the case's held-out target: the loop meets it; or some structure fitted to the
     held-out records reaches it and the loop misses it; or none does (the target is out of reach)."""
@@ -67,10 +70,6 @@ def verdict(floor: dict, loop: dict | None, ratio: float) -> str:
     if floor.get("discovered") is not None and floor["discovered"] <= ratio:
         return "the loop's miss: its model fits the record, not from the others (generalisation)"
     return "the loop's miss" + (": another structure fits (selection)" if floor.get("discovered") is not None else "")
-
-
-def _f(v) -> str:
-    return "—" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.2f}"
 
 
 def singled_out(floor: dict) -> str:
@@ -90,13 +89,13 @@ def markdown(rows: list[dict], loops: dict[str, dict], ratio: float) -> str:
         loop = loops.get(r["name"])
         named = ", ".join(loop["named"]) if loop and loop.get("named") else "nothing"
         if r.get("error"):
-            lines.append(f"| {r['name']} | {r['category']} | {named} | {_f(loop and loop.get('after_over_noise'))} "
+            lines.append(f"| {r['name']} | {r['category']} | {named} | {_f2(loop and loop.get('after_over_noise'))} "
                          f"| error: {r['error'].splitlines()[0]} | | | | | error |")
             continue
         structure = " / ".join(" + ".join(st) or "the nominal" for st in r["expected_structure"]) or "the nominal"
-        lines.append(f"| {r['name']} | {r['category']} | {named} | {_f(loop and loop.get('after_over_noise'))} "
-                     f"| {_f(r['nominal'])} | {_f(r['expected'])} ({structure}) | {_f(r['best_effect'])} "
-                     f"({r['best_effect_name']}) | {singled_out(r)} | {_f(r.get('discovered'))} "
+        lines.append(f"| {r['name']} | {r['category']} | {named} | {_f2(loop and loop.get('after_over_noise'))} "
+                     f"| {_f2(r['nominal'])} | {_f2(r['expected'])} ({structure}) | {_f2(r['best_effect'])} "
+                     f"({r['best_effect_name']}) | {singled_out(r)} | {_f2(r.get('discovered'))} "
                      f"| {verdict(r, loop, ratio)} |")
     return head + "\n".join(lines)
 
@@ -114,13 +113,6 @@ def tally(rows: list[dict], loops: dict[str, dict], ratio: float) -> dict:
             "effect_cases": len(effect_rows),
             "expected_best": sum(singled_out(r) == "yes" for r in effect_rows),
             "errors": sum(v == "error" for v in verdicts), "no_loop": sum(v == "no loop result" for v in verdicts)}
-
-
-def write_readme(section: str, path: Path = README) -> None:
-    text = path.read_text()
-    start, end = MARKERS
-    a, b = text.index(start) + len(start), text.index(end)
-    path.write_text(text[:a] + "\n" + section + "\n" + text[b:])
 
 
 def main(argv=None) -> dict:
@@ -207,7 +199,7 @@ def main(argv=None) -> dict:
     if args.json and not args.from_json:
         Path(args.json).write_text(json.dumps(out, indent=2, default=str))
     if args.write_readme:
-        write_readme(section)
+        write_readme(section, bed="floor")
     print(section)
     return out
 

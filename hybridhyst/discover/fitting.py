@@ -192,7 +192,7 @@ def _followed(space: SearchSpace, candidate, train, sim, lm, lm_steps: int, box_
         try:
             wider = _space(space.model, train, bounds=candidate.bounds, factor=box_factor)
             x0 = wider.initial().clamp(wider.lower, wider.upper)
-            if all(n in at_bounds(wider, x0) for n in edges):  # a domain's own limit: no box can move past it
+            if set(edges) <= set(at_bounds(wider, x0)):  # a domain's own limit: no box can move past it
                 break
             problem = _problem(wider, train, sim, sim.substeps)
             # a few iterations first: most edges are a constant the new element made redundant, running off
@@ -264,16 +264,18 @@ def resolve(space: SearchSpace, train, sim, x: torch.Tensor, lm_steps: int) -> F
     return _fit(space, x, sse, substeps) if math.isfinite(sse) else None
 
 
-def fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int, bar) -> list:
-    """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``), ``workers`` at a
-    time; a candidate that cannot be simulated gets None."""
+def fit_candidates(cands, model, train, sim, lm_steps, box_factor, workers: int = 1, bar: Callable | None = None,
+                   search: int = 24, keep: int = 3) -> list:
+    """``[(candidate, Fit or None)]`` in the candidates' order: each fitted (``fit_candidate``, with its ``search``
+    and ``keep``), ``workers`` at a time; a candidate that cannot be simulated gets None. ``bar(items, what,
+    total)``: a progress bar, or None."""
     def one(cand):
         try:
-            return fit_candidate(cand, model, train, sim, lm_steps, box_factor)
+            return fit_candidate(cand, model, train, sim, lm_steps, box_factor, search=search, keep=keep)
         except (ValueError, RuntimeError):  # a candidate that cannot be simulated is skipped
             return None
 
-    fits = side_by_side(one, cands, workers, lambda items, n: bar(items, "rank candidates", total=n))
+    fits = side_by_side(one, cands, workers, bar and (lambda items, n: bar(items, "rank candidates", total=n)))
     return list(zip(cands, fits))
 
 

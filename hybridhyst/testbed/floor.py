@@ -39,7 +39,7 @@ from dataclasses import replace
 import torch
 
 from ..discover.candidates import Scales, effect_candidates, start_candidates
-from ..discover.fitting import at, fit_candidate, polish, prebuild
+from ..discover.fitting import at, fit_candidates, polish, prebuild
 from ..discover.loop import Loop
 from ..discover.settings import DiscoverSettings
 from ..physics.effects import EFFECTS
@@ -66,19 +66,13 @@ def _loop(case: Case, record: str) -> Loop:
 
 
 def _fitted(loop: Loop, cands, fit, search: int) -> dict:
-    """``{candidate name: Fit}`` of ``cands`` on ``fit``'s model, each fitted as the loop fits a candidate with
-    ``search`` points of its global search (and ``search // 8`` of them kept as starts); one that cannot be
-    simulated is left out."""
-    o, out = loop.options, {}
-    for cand in cands:
-        try:
-            f = fit_candidate(cand, fit.model, loop.train, at(loop.sim, fit), o.lm_steps, o.box_factor,
-                              search=search, keep=max(search // 8, 3))
-        except (ValueError, RuntimeError):
-            f = None
-        if f is not None:
-            out[cand.name] = f
-    return out
+    """``{candidate name: Fit}`` of ``cands`` on ``fit``'s model, fitted as the loop fits its candidates
+    (``discover.fitting.fit_candidates``) with ``search`` points of the global search and ``search // 8`` of them
+    kept as starts; one that cannot be simulated is left out."""
+    o = loop.options
+    fits = fit_candidates(cands, fit.model, loop.train, at(loop.sim, fit), o.lm_steps, o.box_factor,
+                          search=search, keep=max(search // 8, 3))
+    return {c.name: f for c, f in fits if f is not None}
 
 
 def _with_start(loop: Loop, fit, key: str, search: int):
@@ -107,14 +101,14 @@ def record_floor(case: Case, record: str, search: int = SEARCH, discovered=None)
     (every coordinate, LM, step doubling: ``discover.fitting.polish``)."""
     loop = _loop(case, record)
     base = loop.fit
-    refitted = None
-    if discovered is not None:  # None where it cannot be simulated on the record (a trend leaving its domain)
+    refitted = None  # also where it cannot be simulated on the record (a trend leaving its domain)
+    if discovered is not None:
         o = loop.options
         try:
-            refitted = polish(copy.deepcopy(discovered), loop.train, loop.sim, o.lm_steps, o.box_factor).sse
+            sse = polish(copy.deepcopy(discovered), loop.train, loop.sim, o.lm_steps, o.box_factor).sse
+            refitted = sse if math.isfinite(sse) else None
         except (ValueError, RuntimeError):
-            refitted = None
-        refitted = refitted if refitted is not None and math.isfinite(refitted) else None
+            pass
     wanted = sorted(set().union(*case.expected)) if case.expected else []
     offered = [n for n in sorted(EFFECTS) if EFFECTS[n].discovery_candidate]
     cands = _candidates(base.model, loop.scales, sorted(set(offered) | set(wanted)))
