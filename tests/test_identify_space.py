@@ -161,6 +161,45 @@ def test_trend_boxes_of_a_partly_known_polynomial_and_under_a_user_box(float64):
     assert wide["viscous.c.c0"] == pytest.approx((6.7 - 67 - 5000 * 0.09, 6.7 + 67 + 5000 * 0.09))
 
 
+def test_a_nonnegative_polynomial_is_never_searched_below_zero(float64):
+    """The travel a device made before a record, carried from record to record (``discover.carried_travel``), is a
+    line in the travel before it whose coefficients are both ≥ 0: a local refit of fitted trends (boxes symmetric
+    about 0) once turned its slope negative, and the start travel of a held-out record that came after more travel
+    than any training record went below 0 (a spring built up from zero stiffness started at minus its value: 15.8
+    × noise held out on the bed's `coulomb` case without its spring). The flag round-trips through the config and
+    training's projection puts its coefficients back at 0."""
+    from hybridhyst.identify.space import SearchSpace
+    from hybridhyst.physics.parameters import build_function, project_to_bounds
+
+    ranges = {"pressure_mpa": (0.01, 0.09)}
+    for slope in (0.0, 20.0):
+        line = {"kind": "linear", "slope": slope, "intercept": 6.7, "condition": "pressure_mpa"}
+        signed = {c.name: (c.lower, c.upper) for c in SearchSpace(
+            vpptd_algebraic_c(line), condition_ranges=ranges, refit_trends=True).coordinates}
+        kept = {c.name: (c.lower, c.upper) for c in SearchSpace(
+            vpptd_algebraic_c({**line, "nonnegative": True}), condition_ranges=ranges, refit_trends=True).coordinates}
+        for name in ("viscous.c.c0", "viscous.c.c1"):
+            assert signed[name][0] < 0 and kept[name] == (0.0, signed[name][1]), (name, signed[name], kept[name])
+    fn = build_function({"kind": "linear", "slope": 2.0, "intercept": 0.5, "condition": "travel_before",
+                         "nonnegative": True})
+    assert fn.config() == {"kind": "linear", "slope": 2.0, "intercept": 0.5, "condition": "travel_before",
+                           "nonnegative": True}
+    assert "nonnegative" not in build_function({"kind": "linear", "slope": 2.0, "intercept": 0.5}).config()
+    with pytest.raises(ValueError, match="nonnegative polynomial"):
+        build_function({"kind": "linear", "slope": -1.0, "intercept": 0.5, "nonnegative": True})
+    model = vpptd_algebraic_c({"kind": "linear", "slope": 2.0, "intercept": 6.7, "nonnegative": True})
+    with torch.no_grad():
+        model.effects["viscous"].params["c"].coeffs.copy_(torch.tensor([-1.0, 3.0]))
+    project_to_bounds(model)
+    assert model.effects["viscous"].params["c"].coeffs.tolist() == [0.0, 3.0]
+
+
+def vpptd_algebraic_c(c):
+    from hybridhyst.physics.compositions import vpptd_algebraic
+
+    return vpptd_algebraic(c=c).double()
+
+
 def test_a_trend_box_holds_a_steep_line_far_from_zero(float64):
     """Conditions far from 0 (band tension 30 ... 36 lb): a parameter that grows five-fold across the data is
     ``v + 2/3 v (T - 30)``, slope 2/3 v and intercept -19 v. A box sized by the largest |condition| (± 10 v / 36)

@@ -65,6 +65,24 @@ def test_stribeck_playing_coulomb_is_replaced_by_coulomb():
     assert math.isclose(fc, 0.4, rel_tol=0.05)
 
 
+def test_a_drift_that_levelled_off_before_the_record_is_replaced_by_the_constant_term():
+    """A stiffness drift with travel that levels off at once (λ large: the spring is built up within a fiftieth of
+    an inch of travel) is a constant spring: from a nominal without its spring, the loop took such a drift for the
+    missing spring, which held its place beside the friction added next (4 parameters for 1) and extrapolated to
+    the held-out records through its carried travel. Its special case, the constant term, replaces it."""
+    from hybridhyst.physics.effects import TravelStiffness
+
+    model = Constitutive({"viscous": Viscous(c=0.1), "coulomb": Coulomb(Fc=0.3, v_s=0.01, fixed=["v_s"]),
+                          "travel_stiffness": TravelStiffness(dk=80.0, lam=50.0)}).double()
+    fast = SimulationSettings(backend="fast")  # the compiled loop (its equality with the reference: test_fast.py)
+    records = _records(0.0, 1.0)
+    fit, changes = _run(polish(model, records, fast, 25, 10.0), records, fast)
+    assert [(c["kind"], c["by"], c["replacement"]) for c in changes] == [
+        ("replaced", ["linear_stiffness"], "special_case")], changes
+    k = float(fit.model.effects["linear_stiffness"].params["k"].value.detach())
+    assert math.isclose(k, 2.0, rel_tol=0.02), k
+
+
 def test_a_needed_stribeck_stays():
     fit, changes = _simplify(_records(0.4, 1.0), _stribeck_model(vs=1.0))
     assert changes == [] and "stribeck" in fit.model.effects

@@ -173,7 +173,8 @@ def effect_candidates(model, scales: Scales, names: Sequence[str] | None = None)
         def build(m, key=key, cls=cls, start=starts[0], held=held, carried=carried):
             values = {k.split(".", 1)[1]: v for k, v in start.items() if k.count(".") == 1}
             if carried:
-                values["s0"] = {"kind": "linear", "slope": 0.0, "intercept": 0.0, "condition": TRAVEL_BEFORE}
+                values["s0"] = {"kind": "linear", "slope": 0.0, "intercept": 0.0, "condition": TRAVEL_BEFORE,
+                               "nonnegative": True}  # a travel, growing with the travel before: no fit can make it fall
             return _placed(m, key, cls(**values, **held, fixed=sorted(held)))
 
         doc = (cls.__doc__ or name).strip().splitlines()[0]

@@ -17,8 +17,9 @@ Bounds rule (finite bounds are required by global search): a box around the coor
 v, ``(v / 10, 10 v)`` for v > 0, ``(10 v, v / 10)`` for v < 0 and ``(-1, 1)`` for v = 0 (``factor``
 replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parameter itself (constants and
 per-condition levels; function coefficients have other units, so only the box applies). Coordinates of
-unknown sign (network weights, a start state: ``ParameterSpec.signed``) get ``(-10 |v|, 10 |v|)`` instead. User
-overrides ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
+unknown sign (network weights, a start state: ``ParameterSpec.signed``) get ``(-10 |v|, 10 |v|)`` instead; the
+coefficients of a nonnegative polynomial (``Polynomial(nonnegative=True)``: the travel a device made before a record)
+never reach below 0. User overrides ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named. Coordinates whose box is
 strictly positive and spans more than a factor 3 are searched on a log scale.
 
 Polynomial trends (``trend_scale``, the one rule of identification and the discovery loop; only when the data's
@@ -282,6 +283,8 @@ class SearchSpace(Box):
                     override = trends.get(position)
                 spec = specs[(key, pname)] if co.own else None
                 lo, hi = self._bounds(co.value, spec, factor, override, co.signed or (spec is not None and spec.signed))
+                if co.nonnegative and lo < 0:  # a coefficient that is never negative (``Polynomial(nonnegative=)``)
+                    lo, hi = 0.0, hi if hi > 0 else max(co.value, 1.0)
                 unit = "" if spec is None else (model.effects[key].param_unit(pname, model.units)
                                                 if key in model.effects else render_unit(spec.unit, model.units))
                 coords.append(Coordinate(name, key, pname, position, co.value, lo, hi, unit))

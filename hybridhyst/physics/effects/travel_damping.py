@@ -28,6 +28,9 @@ class TravelDamping(TravelEffect):
     """
 
     name = "travel_damping"
+    # a drift that levelled off before the record began (λ → ∞ with the drift over λ held, or λ s0 ≫ 1) is
+    # a constant damping dc/λ
+    special_cases = (("viscous",),)
     example_values = {"dc": -0.05, "lam": 0.3}
     equation = "ds/dt = |v| (1 - lam * s);  F = dc * s * v"
     source = "hybridhyst: drift of the viscous damping with cumulative travel, levelling off"

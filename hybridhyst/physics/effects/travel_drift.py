@@ -79,6 +79,9 @@ class TravelDrift(TravelEffect):
     """
 
     name = "travel_drift"
+    # a drift that levelled off before the record began (λ → ∞ with the drift over λ held, or λ s0 ≫ 1) is
+    # a constant friction level dF/λ
+    special_cases = (("coulomb",),)
     example_values = {"dF": 0.4, "v_s": 0.2, "lam": 0.3}
     equation = "ds/dt = |v| (1 - lam * s);  F = dF * s * tanh(v / v_s)"
     source = "hybridhyst: drift of the friction level with cumulative travel, levelling off"

@@ -28,6 +28,9 @@ class TravelStiffness(TravelEffect):
     """
 
     name = "travel_stiffness"
+    # a drift that levelled off before the record began (λ → ∞ with the drift over λ held, or λ s0 ≫ 1) is
+    # a constant stiffness dk/λ
+    special_cases = (("linear_stiffness",),)
     example_values = {"dk": -0.3, "lam": 0.3}
     equation = "ds/dt = |v| (1 - lam * s);  F = dk * s * x"
     source = "hybridhyst: drift of the stiffness with cumulative travel, levelling off"

@@ -39,6 +39,8 @@ class FunctionCoordinate:
         ``ParameterSpec.bounds`` apply to it; coefficients have other units.
     power : the power of the condition the coordinate multiplies (polynomial coefficients), else 0.
     signed : its sign is not known in advance (network weights): search it in a box symmetric about 0.
+    nonnegative : it is never negative (the coefficients of a ``Polynomial(..., nonnegative=True)``): every
+        search box starts at 0 at the lowest.
     """
 
     suffix: str
@@ -46,6 +48,7 @@ class FunctionCoordinate:
     own: bool = False
     power: int = 0
     signed: bool = False
+    nonnegative: bool = False
 
 
 class ParameterFunction(nn.Module):

@@ -84,19 +84,27 @@ class Fixed(ParameterFunction):
 
 
 class Polynomial(ParameterFunction):
-    """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left)."""
+    """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left).
+
+    ``nonnegative``: every coefficient is ≥ 0 (identification's boxes start at 0): a quantity that starts at a
+    nonnegative value and grows with a condition that is never negative (the travel a device has made before a
+    record, ``discover.carried_travel``), so that no fit can make it fall, or turn negative, beyond the conditions
+    it was fitted on."""
 
     _attrs = ("coeffs",)
 
-    def __init__(self, coeffs: list[float], condition: str = "pressure_mpa"):
+    def __init__(self, coeffs: list[float], condition: str = "pressure_mpa", nonnegative: bool = False):
         super().__init__()
         if len(coeffs) == 0:
             raise ValueError("Polynomial needs at least one coefficient")
+        if nonnegative and any(float(c) < 0 for c in coeffs):
+            raise ValueError(f"a nonnegative polynomial needs coefficients >= 0, got {list(coeffs)}")
         self.condition = condition
+        self.nonnegative = bool(nonnegative)
         self.coeffs = nn.Parameter(torch.tensor([float(c) for c in coeffs], dtype=torch.get_default_dtype()))
 
     def _coordinate(self, path, index, value):
-        return FunctionCoordinate(f".c{index}", value, power=index)
+        return FunctionCoordinate(f".c{index}", value, power=index, nonnegative=self.nonnegative)
 
     def evaluate_batch(self, coords, conditions, batch):
         return self.at([coords[:, i:i + 1] for i in range(coords.shape[1])], self._c(conditions, batch, coords))
@@ -112,18 +120,20 @@ class Polynomial(ParameterFunction):
         return " ".join(terms)
 
     def config(self) -> dict:
-        return {"kind": "polynomial", "coeffs": self.coeffs.detach().tolist(), "condition": self.condition}
+        return {"kind": "polynomial", "coeffs": self.coeffs.detach().tolist(), "condition": self.condition,
+                **({"nonnegative": True} if self.nonnegative else {})}
 
 
 class Linear(Polynomial):
-    """y = intercept + slope · c."""
+    """y = intercept + slope · c (``nonnegative``: both ≥ 0, as ``Polynomial``)."""
 
-    def __init__(self, slope: float, intercept: float, condition: str = "pressure_mpa"):
-        super().__init__([intercept, slope], condition)
+    def __init__(self, slope: float, intercept: float, condition: str = "pressure_mpa", nonnegative: bool = False):
+        super().__init__([intercept, slope], condition, nonnegative)
 
     def config(self) -> dict:
         intercept, slope = self.coeffs.detach().tolist()
-        return {"kind": "linear", "slope": slope, "intercept": intercept, "condition": self.condition}
+        return {"kind": "linear", "slope": slope, "intercept": intercept, "condition": self.condition,
+                **({"nonnegative": True} if self.nonnegative else {})}
 
 
 class _Exponential(ParameterFunction):
@@ -351,9 +361,14 @@ def project_to_bounds(model: nn.Module) -> None:
     Call after an optimiser step. These parameters are stored unconstrained so that they can sit exactly
     at their neutral value 0 with a live gradient; the projection (not a clamp inside the forward pass)
     keeps them admissible. Parameter functions of a condition (linear, polynomial, …) are not projected:
-    their coefficients have no sign constraint, only their values do.
+    their coefficients have no sign constraint, only their values do — except a nonnegative polynomial's,
+    whose coefficients are put back at ≥ 0.
     """
     for module in model.modules():
+        if isinstance(module, Polynomial) and module.nonnegative:
+            with torch.no_grad():
+                module.coeffs.clamp_(min=0.0)
+            continue
         specs = getattr(module, "param_specs", None)
         params = getattr(module, "params", None)
         if not specs or params is None:
