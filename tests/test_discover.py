@@ -457,6 +457,8 @@ def test_a_carried_drift_offers_no_shared_start_state_and_can_be_swapped_out():
     (cand,) = effect_candidates(nominal, carried, ["travel_stiffness"])
     assert {"travel_stiffness.s0.c0", "travel_stiffness.s0.c1"} <= set(cand.free)
     model = cand.build(nominal)
+    # the travel carried in never falls with the travel before, nor turns negative, in any later fit
+    assert model.effects["travel_stiffness"].params["s0"].nonnegative
     (alone,) = effect_candidates(nominal, plain, ["travel_stiffness"])
     assert "s0" not in alone.build(nominal).effects["travel_stiffness"].params
     assert start_candidates(model, carried) == [] and start_candidates(alone.build(nominal), plain) == []

@@ -185,8 +185,15 @@ def test_a_nonnegative_polynomial_is_never_searched_below_zero(float64):
     assert fn.config() == {"kind": "linear", "slope": 2.0, "intercept": 0.5, "condition": "travel_before",
                            "nonnegative": True}
     assert "nonnegative" not in build_function({"kind": "linear", "slope": 2.0, "intercept": 0.5}).config()
-    with pytest.raises(ValueError, match="nonnegative polynomial"):
+    with pytest.raises(ValueError, match="nonnegative linear function needs slope and intercept >= 0, got slope -1"):
         build_function({"kind": "linear", "slope": -1.0, "intercept": 0.5, "nonnegative": True})
+    with pytest.raises(ValueError, match="nonnegative polynomial"):
+        build_function({"kind": "polynomial", "coeffs": [0.5, -1.0], "nonnegative": True})
+    flagged = vpptd_algebraic_c({"kind": "linear", "slope": 2.0, "intercept": 6.7, "nonnegative": True})
+    assert {c.name: (c.lower, c.upper) for c in SearchSpace(flagged, {"viscous.c.c1": (-3.0, 5.0)}).coordinates}[
+        "viscous.c.c1"] == (0.0, 5.0)  # a user's box is clipped at 0 ...
+    with pytest.raises(ValueError, match="viscous.c.c1: a coefficient of a nonnegative function is never negative"):
+        SearchSpace(flagged, {"viscous.c.c1": (-3.0, -1.0)})  # ... and one entirely below it is said
     model = vpptd_algebraic_c({"kind": "linear", "slope": 2.0, "intercept": 6.7, "nonnegative": True})
     with torch.no_grad():
         model.effects["viscous"].params["c"].coeffs.copy_(torch.tensor([-1.0, 3.0]))

@@ -19,7 +19,7 @@ replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parame
 per-condition levels; function coefficients have other units, so only the box applies). Coordinates of
 unknown sign (network weights, a start state: ``ParameterSpec.signed``) get ``(-10 |v|, 10 |v|)`` instead; the
 coefficients of a nonnegative polynomial (``Polynomial(nonnegative=True)``: the travel a device made before a record)
-never reach below 0. User overrides ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named.
+never reach below 0, a user's box for them included (one entirely below 0 is an error). User overrides ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named.
 Coordinates whose box is strictly positive and spans more than a factor 3 are searched on a log scale.
 
 Polynomial trends (``trend_scale``, the one rule of identification and the discovery loop; only when the data's
@@ -284,7 +284,10 @@ class SearchSpace(Box):
                 spec = specs[(key, pname)] if co.own else None
                 lo, hi = self._bounds(co.value, spec, factor, override, co.signed or (spec is not None and spec.signed))
                 if co.nonnegative and lo < 0:  # a coefficient that is never negative (``Polynomial(nonnegative=)``)
-                    lo, hi = 0.0, hi if hi > 0 else max(co.value, 1.0)
+                    if hi <= 0 and position in given:  # the user's box: said, not replaced
+                        raise ValueError(f"bounds ({lo:g}, {hi:g}) for {name}: a coefficient of a nonnegative "
+                                         "function is never negative; give an upper bound > 0")
+                    lo, hi = 0.0, hi if hi > 0 else 1.0
                 unit = "" if spec is None else (model.effects[key].param_unit(pname, model.units)
                                                 if key in model.effects else render_unit(spec.unit, model.units))
                 coords.append(Coordinate(name, key, pname, position, co.value, lo, hi, unit))

@@ -84,7 +84,8 @@ class Fixed(ParameterFunction):
 
 
 class Polynomial(ParameterFunction):
-    """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left).
+    """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left; ``nonnegative``:
+    every coefficient ≥ 0).
 
     ``nonnegative``: every coefficient is ≥ 0 (identification's boxes start at 0): a quantity that starts at a
     nonnegative value and grows with a condition that is never negative (the travel a device has made before a
@@ -128,6 +129,9 @@ class Linear(Polynomial):
     """y = intercept + slope · c (``nonnegative``: both ≥ 0, as ``Polynomial``)."""
 
     def __init__(self, slope: float, intercept: float, condition: str = "pressure_mpa", nonnegative: bool = False):
+        if nonnegative and (float(slope) < 0 or float(intercept) < 0):
+            raise ValueError(f"a nonnegative linear function needs slope and intercept >= 0, got slope {slope:g}, "
+                             f"intercept {intercept:g}")
         super().__init__([intercept, slope], condition, nonnegative)
 
     def config(self) -> dict:
