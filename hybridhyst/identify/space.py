@@ -19,7 +19,8 @@ replaces 10), intersected with ``ParameterSpec.bounds`` for values of the parame
 per-condition levels; function coefficients have other units, so only the box applies). Coordinates of
 unknown sign (network weights, a start state: ``ParameterSpec.signed``) get ``(-10 |v|, 10 |v|)`` instead; the
 coefficients of a nonnegative polynomial (``Polynomial(nonnegative=True)``: the travel a device made before a record)
-never reach below 0, a user's box for them included (one entirely below 0 is an error). User overrides ``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named.
+never reach below 0, a user's box for them included (one entirely below 0 is an error). User overrides
+``bounds={"dahl.Fc": (0.5, 5)}`` replace the rule for the coordinates named.
 Coordinates whose box is strictly positive and spans more than a factor 3 are searched on a log scale.
 
 Polynomial trends (``trend_scale``, the one rule of identification and the discovery loop; only when the data's
