@@ -185,9 +185,11 @@ def test_a_nonnegative_polynomial_is_never_searched_below_zero(float64):
     assert fn.config() == {"kind": "linear", "slope": 2.0, "intercept": 0.5, "condition": "travel_before",
                            "nonnegative": True}
     assert "nonnegative" not in build_function({"kind": "linear", "slope": 2.0, "intercept": 0.5}).config()
-    with pytest.raises(ValueError, match="nonnegative linear function needs slope and intercept >= 0, got slope -1"):
+    with pytest.raises(ValueError, match="nonnegative linear function needs every coefficient >= 0, got intercept "
+                                         "0.5, slope -1"):
         build_function({"kind": "linear", "slope": -1.0, "intercept": 0.5, "nonnegative": True})
-    with pytest.raises(ValueError, match="nonnegative polynomial"):
+    with pytest.raises(ValueError, match="nonnegative polynomial function needs every coefficient >= 0, got c0 = 0.5, "
+                                         "c1 = -1"):
         build_function({"kind": "polynomial", "coeffs": [0.5, -1.0], "nonnegative": True})
     flagged = vpptd_algebraic_c({"kind": "linear", "slope": 2.0, "intercept": 6.7, "nonnegative": True})
     assert {c.name: (c.lower, c.upper) for c in SearchSpace(flagged, {"viscous.c.c1": (-3.0, 5.0)}).coordinates}[

@@ -285,10 +285,10 @@ class SearchSpace(Box):
                 spec = specs[(key, pname)] if co.own else None
                 lo, hi = self._bounds(co.value, spec, factor, override, co.signed or (spec is not None and spec.signed))
                 if co.nonnegative and lo < 0:  # a coefficient that is never negative (``Polynomial(nonnegative=)``)
-                    if hi <= 0 and position in given:  # the user's box: said, not replaced
+                    if hi <= 0:  # only a user's box can be (the rule's reach above a value ≥ 0): said, not replaced
                         raise ValueError(f"bounds ({lo:g}, {hi:g}) for {name}: a coefficient of a nonnegative "
                                          "function is never negative; give an upper bound > 0")
-                    lo, hi = 0.0, hi if hi > 0 else 1.0
+                    lo = 0.0
                 unit = "" if spec is None else (model.effects[key].param_unit(pname, model.units)
                                                 if key in model.effects else render_unit(spec.unit, model.units))
                 coords.append(Coordinate(name, key, pname, position, co.value, lo, hi, unit))

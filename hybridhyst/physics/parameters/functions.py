@@ -93,16 +93,22 @@ class Polynomial(ParameterFunction):
     it was fitted on."""
 
     _attrs = ("coeffs",)
+    _kind = "polynomial"
 
     def __init__(self, coeffs: list[float], condition: str = "pressure_mpa", nonnegative: bool = False):
         super().__init__()
         if len(coeffs) == 0:
             raise ValueError("Polynomial needs at least one coefficient")
         if nonnegative and any(float(c) < 0 for c in coeffs):
-            raise ValueError(f"a nonnegative polynomial needs coefficients >= 0, got {list(coeffs)}")
+            raise ValueError(f"a nonnegative {self._kind} function needs every coefficient >= 0, got "
+                             f"{self._named(coeffs)}")
         self.condition = condition
         self.nonnegative = bool(nonnegative)
         self.coeffs = nn.Parameter(torch.tensor([float(c) for c in coeffs], dtype=torch.get_default_dtype()))
+
+    @staticmethod
+    def _named(coeffs) -> str:
+        return ", ".join(f"c{i} = {float(c):g}" for i, c in enumerate(coeffs))
 
     def _coordinate(self, path, index, value):
         return FunctionCoordinate(f".c{index}", value, power=index, nonnegative=self.nonnegative)
@@ -128,11 +134,14 @@ class Polynomial(ParameterFunction):
 class Linear(Polynomial):
     """y = intercept + slope · c (``nonnegative``: both ≥ 0, as ``Polynomial``)."""
 
+    _kind = "linear"
+
     def __init__(self, slope: float, intercept: float, condition: str = "pressure_mpa", nonnegative: bool = False):
-        if nonnegative and (float(slope) < 0 or float(intercept) < 0):
-            raise ValueError(f"a nonnegative linear function needs slope and intercept >= 0, got slope {slope:g}, "
-                             f"intercept {intercept:g}")
         super().__init__([intercept, slope], condition, nonnegative)
+
+    @staticmethod
+    def _named(coeffs) -> str:
+        return f"intercept {float(coeffs[0]):g}, slope {float(coeffs[1]):g}"
 
     def config(self) -> dict:
         intercept, slope = self.coeffs.detach().tolist()
