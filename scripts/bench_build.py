@@ -9,8 +9,10 @@
    back to back, and their ratio.
 3. ``--opt-levels``: the main job built at -O2 and at -O3 (``HYBRIDHYST_OPT``), side by side: for each level an
    empty cache, one cold run, then two warm runs, the levels alternating; the warm runs' ratio -O3 / -O2.
+4. ``--workers``: the main job warm with a discovery step's candidates fitted in forked processes (the default)
+   and in threads (``HYBRIDHYST_WORKERS=threads``), three runs each, the kinds alternating; the best runs' ratio.
 
-    PYTHONPATH=. python scripts/bench_build.py --main-job --opt-levels \
+    PYTHONPATH=. python scripts/bench_build.py --main-job --opt-levels --workers \
         --json experiments/performance/bench_build.json --write-readme
 
 ``--quick``: three models, no main job.
@@ -175,7 +177,20 @@ def run_opt_levels(levels=("-O2", "-O3"), warm: int = 2) -> dict:
     return out
 
 
-def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
+def run_workers(kinds=("processes", "threads"), runs: int = 3) -> dict:
+    """The main job warm with the candidates' fits in processes and in threads (``HYBRIDHYST_WORKERS``), ``runs``
+    each, the kinds alternating (a change in the machine's load falls on both); the cache warmed first."""
+    out = {kind: [] for kind in kinds}
+    with tempfile.TemporaryDirectory() as root:
+        _main_job(dict(os.environ), f"{root}/warm-up")
+        for k in range(runs):
+            for kind in (kinds if k % 2 == 0 else kinds[::-1]):
+                out[kind].append(_main_job({**os.environ, "HYBRIDHYST_WORKERS": kind}, f"{root}/{kind}{k}"))
+    out["ratio"] = min(out[kinds[1]]) / min(out[kinds[0]])
+    return out
+
+
+def run(quick: bool, main_job: bool = False, opt_levels: bool = False, workers: bool = False) -> dict:
     torch.set_default_dtype(torch.float64)
     makers = models(quick)
     old = os.environ.get("HYBRIDHYST_CACHE")
@@ -194,6 +209,8 @@ def run(quick: bool, main_job: bool = False, opt_levels: bool = False) -> dict:
         res["main_job"] = run_main_job()
     if opt_levels:
         res["opt_levels"] = run_opt_levels()
+    if workers:
+        res["workers"] = run_workers()
     return res
 
 
@@ -225,13 +242,19 @@ def markdown(res: dict) -> str:
                          for lv in levels)
         lines += ["", f"The main job built at each optimisation level (`HYBRIDHYST_OPT`, side by side, levels "
                       f"alternating): {runs}. Best warm {levels[-1]} / {levels[0]} = {o['warm_ratio']:.2f}."]
+    if "workers" in res:
+        w = res["workers"]
+        runs = "; ".join(f"{kind}: {', '.join(f'{t:.1f}' for t in w[kind])} s" for kind in ("processes", "threads"))
+        lines += ["", f"The main job warm with each discovery step's candidates fitted in forked processes (the "
+                      f"default) and in threads (`HYBRIDHYST_WORKERS=threads`), kinds alternating: {runs}. Best "
+                      f"threads / processes = {w['ratio']:.2f}."]
     return "\n".join(lines)
 
 
 def main(argv=None) -> dict:
     from bench_simulate import simple_main
 
-    return simple_main(argv, __doc__, "bench_build", run, markdown, flags=("main_job", "opt_levels"))
+    return simple_main(argv, __doc__, "bench_build", run, markdown, flags=("main_job", "opt_levels", "workers"))
 
 
 if __name__ == "__main__":

@@ -253,3 +253,60 @@ def test_a_constant_the_nominal_pushed_to_an_edge_follows_it_once_the_missing_ef
     held = fit_candidate(cand, fit.model, records, sim, 25, 10.0)
     assert held.coords["viscous.c"] == pytest.approx(0.02, rel=1e-3) and math.sqrt(held.sse / n) > 3 * noise
     assert got.sse < held.sse
+
+
+def test_side_by_side_hands_a_closure_to_forked_workers_and_keeps_the_order(monkeypatch):
+    """``side_by_side``: each item in a forked process (a closure over the caller's state needs no pickling; its
+    results come back in the items' order), the same results in threads (``HYBRIDHYST_WORKERS=threads``)."""
+    import multiprocessing
+    import os
+    import sys
+
+    from hybridhyst.discover.fitting import side_by_side
+
+    monkeypatch.delenv("HYBRIDHYST_WORKERS", raising=False)
+    offset = {"value": 10}  # a closure's state: a forked worker holds it as the caller did
+
+    def job(i):
+        return i * i + offset["value"], os.getpid()
+
+    in_processes = side_by_side(job, range(5), workers=2)
+    assert [r for r, _ in in_processes] == [i * i + 10 for i in range(5)]
+    if sys.platform == "linux" and not multiprocessing.current_process().daemon:
+        assert os.getpid() not in {pid for _, pid in in_processes}
+    monkeypatch.setenv("HYBRIDHYST_WORKERS", "threads")
+    in_threads = side_by_side(job, range(5), workers=2)
+    assert [r for r, _ in in_threads] == [r for r, _ in in_processes]
+    assert {pid for _, pid in in_threads} == {os.getpid()}
+
+
+def _polish_or_swap(alt):
+    """A stand-in for ``simplify``'s refit: a removal polishes its reduced model in place (what ``polish`` does);
+    a swap reports the value of the model it starts from."""
+    from types import SimpleNamespace
+
+    _, _, reduced, cand, _ = alt
+    if cand is None:
+        reduced["value"] = 42.0
+        return SimpleNamespace(model=reduced)
+    return SimpleNamespace(model=None, started_at=reduced["value"])
+
+
+@pytest.mark.parametrize("kind", ["processes", "threads"])
+def test_a_swap_starts_from_its_removals_refit_for_any_number_of_workers(kind, monkeypatch):
+    """``refit_alternatives``: one after another, an effect's swaps start from the reduced model its removal has
+    just polished; side by side (in processes, whose changes stay there, or in threads, which would race) they
+    must too, and an effect whose removal is not tried is swapped from its reduced model as it is."""
+    from hybridhyst.discover.selection import refit_alternatives
+
+    monkeypatch.setenv("HYBRIDHYST_WORKERS", kind)
+
+    def alternatives():
+        a, b = {"value": 1.0}, {"value": 2.0}
+        return [("a", (), a, None, None), ("a", ("x",), a, "cand", "special_case"),
+                ("a", ("y",), a, "cand", "rival_swap"), ("b", ("x",), b, "cand", "rival_swap")]
+
+    one = refit_alternatives(_polish_or_swap, alternatives(), workers=1)
+    side = refit_alternatives(_polish_or_swap, alternatives(), workers=2)
+    assert [getattr(f, "started_at", None) for f in one] == [None, 42.0, 42.0, 2.0]
+    assert [getattr(f, "started_at", None) for f in side] == [None, 42.0, 42.0, 2.0]

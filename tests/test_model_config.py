@@ -101,3 +101,32 @@ def test_a_networks_scales_are_written_from_its_state_not_its_constructor():
         made = EFFECTS["neural"](inputs=inputs, scales={"x": 1.0, "v": 1.0, "F": 1.0})
         made.load_state_dict(EFFECTS["neural"](inputs=inputs, scales={"x": 2.0, "v": 8.0, "F": 3.0}).state_dict())
         assert made.options()["scales"] == {"x": 2.0, "v": 8.0, "F": 3.0}, inputs
+
+
+
+def test_a_model_crosses_to_a_worker_process_as_its_config_and_state():
+    """multiprocessing's pickler (what discovery's forked workers send back): torch's parametrized modules refuse
+    to pickle, so a model goes as its config and state dict; it comes back equal in every tensor, its dtype and its
+    response, a network's weights included. ``copy.deepcopy`` is left as torch has it (a frozen parameter stays
+    frozen)."""
+    import copy
+    from multiprocessing.reduction import ForkingPickler
+
+    import hybridhyst.discover.fitting  # noqa: F401 - registers the structures with the pickler
+
+    base = COMPOSITIONS["dahl_friction"]().double()
+    base.effects["dahl"].params["sigma0"] = NeuralFunction(2.0, "current", hidden=4)
+    model = _moved(base.augmented({"net": EFFECTS["neural"](inputs=("x", "v"), latent_states=1, hidden=[5]).double(),
+                                   "play": EFFECTS["backlash"]().double()}), seed=2)
+    for p in model.parameters():
+        p.data.add_(0.05 * torch.rand_like(p))
+    again = ForkingPickler.loads(ForkingPickler.dumps(model))
+    assert type(again) is type(model) and again.describe() == model.describe()
+    state, back = model.state_dict(), again.state_dict()
+    assert list(back) == list(state)
+    for key, value in state.items():
+        assert back[key].dtype == value.dtype and torch.equal(back[key], value), key
+    assert torch.equal(_response(again), _response(model))
+    plain = COMPOSITIONS["dahl_friction"]().double()
+    next(plain.parameters()).requires_grad_(False)
+    assert not next(copy.deepcopy(plain).parameters()).requires_grad

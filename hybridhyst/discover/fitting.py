@@ -8,9 +8,14 @@ from __future__ import annotations
 
 import copy
 import math
+import multiprocessing
+import os
+import signal
+import sys
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
+from multiprocessing.reduction import ForkingPickler
 
 import torch
 
@@ -18,6 +23,7 @@ from ..identify.identify import at_bounds
 from ..identify.problem import RecordsProblem
 from ..identify.refine import levenberg_marquardt
 from ..identify.space import SearchSpace, condition_ranges
+from ..physics.build import STRUCTURES, model_config, rebuilt_model
 from ..simulate import SimulationSettings, coarsest_substeps, resolved_substeps
 from ..simulate.fast import prebuild_models
 
@@ -43,19 +49,77 @@ class Fit:
 
 
 def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | None = None) -> list:
-    """``[fn(item) for item in items]`` with ``workers`` items at a time, each in a thread of its own (the fits'
-    compiled loops release the GIL; each fit is deterministic, so the results are the same for any number).
-    ``bar(iterable, total)`` wraps the results as they come (a progress bar). An interruption (SIGTERM, Ctrl-C)
-    waits only for the items already running."""
+    """``[fn(item) for item in items]`` with ``workers`` items at a time, each in a forked process of its own on
+    Linux, else in a thread. A forked worker holds everything the caller held, so ``fn`` may be a closure; only
+    its results cross back (a model as its config and state dict, ``_send_model``), and an item whose result
+    cannot be sent back gives None (what both callers' ``fn`` give for a fit that failed). Processes, because a
+    fit spends about half its time in small PyTorch operations around the compiled loops, which threads take
+    turns at under the GIL (``scripts/bench_build.py --workers``). ``fn`` must not change what the caller reads
+    afterwards (a worker's changes stay in the worker): each fit works on its own copy. Each fit is
+    deterministic, so the results are the same for any number of workers and either kind
+    (``HYBRIDHYST_WORKERS=threads`` in the environment takes threads). ``bar(iterable, total)`` wraps the results
+    as they come (a progress bar). An interruption (SIGTERM, Ctrl-C) waits for the items already running or
+    handed to a worker (the workers ignore both signals; their parent stops handing them items)."""
     items = list(items)
     if workers <= 1 or len(items) < 2:
         return [fn(item) for item in (bar(items, len(items)) if bar else items)]
+    global _JOB
+    forks = (sys.platform == "linux" and not multiprocessing.current_process().daemon
+             and os.environ.get("HYBRIDHYST_WORKERS", "processes") != "threads")
+    if forks and _JOB is None:  # not from inside a worker's own item
+        _JOB = (fn, items)
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), initializer=_worker_setup,
+                                   mp_context=multiprocessing.get_context("fork"))
+        try:
+            interrupts = {signal.SIGINT, signal.SIGTERM}
+            held = signal.pthread_sigmask(signal.SIG_BLOCK, interrupts)  # the workers fork without the run's handler
+            try:
+                results = pool.map(_job_item, range(len(items)))
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            return list(bar(results, len(items)) if bar else results)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+            _JOB = None
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
         results = pool.map(fn, items)
         return list(bar(results, len(items)) if bar else results)
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+_JOB: tuple[Callable, list] | None = None  # side_by_side's (fn, items) while its forked workers run
+
+
+def _worker_setup() -> None:
+    """A forked worker: one thread for torch and for its compiled loops' rows (the workers share the cores), and
+    the signals that interrupt a run left to its parent."""
+    os.environ["HYBRIDHYST_FAST_THREADS"] = "1"
+    torch.set_num_threads(1)
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+
+def _job_item(i: int):
+    fn, items = _JOB
+    result = fn(items[i])
+    try:  # what the parent will read: a result it could not rebuild would break the whole pool there
+        ForkingPickler.loads(ForkingPickler.dumps(result))
+    except Exception:  # noqa: BLE001 - any failure to send it back is a failed item
+        return None
+    return result
+
+
+def _send_model(model):
+    """How a model crosses between processes: its config and state dict (torch's parametrized modules, which the
+    constraints are, pickle no other way). For multiprocessing's pickler only; ``copy.deepcopy`` is unchanged."""
+    return rebuilt_model, (model_config(model), model.state_dict())
+
+
+for _structure in STRUCTURES.values():
+    ForkingPickler.register(_structure, _send_model)
 
 
 def at(sim: SimulationSettings, fit: Fit) -> SimulationSettings:

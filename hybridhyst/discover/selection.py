@@ -10,6 +10,7 @@ while a Dahl element, later replaced, was still there)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from ..physics.parameters import Constant
 from .candidates import Candidate, effect_candidates, start_candidates
@@ -17,7 +18,7 @@ from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .result import Change
 from .rule import Acceptance, Judged
 
-__all__ = ["REPLACEMENTS", "combined", "simplify"]
+__all__ = ["REPLACEMENTS", "combined", "refit_alternatives", "simplify"]
 
 
 def combined(candidates: list[Candidate]) -> Candidate:
@@ -89,6 +90,21 @@ def _with_starts(cands: list[Candidate], reduced, scales, replaced) -> Candidate
     return combined(cands)
 
 
+def refit_alternatives(refit: Callable, alternatives: list, workers: int, bar: Callable | None = None) -> list:
+    """``[refit(alt) for alt in alternatives]`` for ``simplify``'s ``(key, by, reduced, candidate, how)``, side by
+    side as if one after another: a removal's refit polishes its reduced model, and the effect's swaps, which share
+    that model, start from the polished one. So the removals first, then the swaps from what they gave (a swap whose
+    removal failed, or was not tried, from the reduced model as it is)."""
+    first = [i for i, alt in enumerate(alternatives) if alt[3] is None]
+    out = dict(zip(first, side_by_side(refit, [alternatives[i] for i in first], workers, bar)))
+    polished = {id(alternatives[i][2]): f.model for i, f in out.items() if f is not None}
+    rest = [i for i in range(len(alternatives)) if i not in out]
+    swaps = [(key, by, polished.get(id(reduced), reduced), cand, how)
+             for key, by, reduced, cand, how in (alternatives[i] for i in rest)]
+    out.update(zip(rest, side_by_side(refit, swaps, workers, bar)))
+    return [out[i] for i in range(len(alternatives))]
+
+
 def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score, opts: dict, progress=None,
              rivals=None, settled=False) -> tuple[Fit, Judged, list[Change]]:
     """Remove or swap effects while the rule prefers the simpler model (``Acceptance.simpler``: a lower
@@ -119,8 +135,8 @@ def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score,
                 return None
 
         # every alternative refitted (side by side), then judged in order: the same choice for any number of workers
-        refits = side_by_side(refit, alternatives, int(opts.get("workers", 1)),
-                              (lambda items, n: progress(items, "simplify")) if progress else None)
+        refits = refit_alternatives(refit, alternatives, int(opts.get("workers", 1)),
+                                    (lambda items, n: progress(items, "simplify")) if progress else None)
         for (key, by, _, _, how), f in zip(alternatives, refits):
             if f is None:
                 continue

@@ -83,8 +83,8 @@ class DiscoverSettings:
         training-only fit (before the refit) so that the validation records are out of sample for the physics
         too. Either's share of the residual recovered on validation records is reported and sets the flag when
         no noise level is known.
-    workers : candidates fitted at once, each in a thread of its own (the compiled loops release the GIL; each
-        fit's rows then run in its own thread). The fits and the result are the same for any number.
+    workers : candidates fitted at once, each in a forked process of its own (``fitting.side_by_side``; a thread
+        where the platform cannot fork). The fits and the result are the same for any number.
     cross_check : "confirm" (default), "report" or "off". For every step the rule accepts, also measure the
         out-of-sample error it did not judge (with ``validation="records"``, leave-one-condition-out over the
         training operating points; with ``"loco"``, the validation records'). When that error did not fall by the

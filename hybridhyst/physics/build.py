@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .models import Constitutive, DrivenOscillator, NominalModel
 
-__all__ = ["build_effect", "build_model", "model_config"]
+__all__ = ["build_effect", "build_model", "model_config", "rebuilt_model"]
 
 STRUCTURES = {"constitutive": Constitutive, "oscillator": DrivenOscillator}
 
@@ -85,3 +85,13 @@ def model_config(model: NominalModel) -> dict:
                    fixed=[k for k, fn in model.structure_params.items() if isinstance(fn, Fixed)],
                    **{k: fn.config() for k, fn in model.structure_params.items()})
     return cfg
+
+
+def rebuilt_model(config: dict, state: dict) -> NominalModel:
+    """The model ``model_config`` and ``state_dict`` were taken from, built back (its dtype the state's)."""
+    model = build_model(**{k: v for k, v in config.items() if k != "_target_"})
+    dtype = next((v.dtype for v in state.values() if v.is_floating_point()), None)
+    if dtype is not None:
+        model = model.to(dtype)
+    model.load_state_dict(state)
+    return model

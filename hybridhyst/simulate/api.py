@@ -212,7 +212,7 @@ _DUAL = threading.Lock()
 @contextlib.contextmanager
 def dual_level():
     """torch's forward-AD level (``torch.autograd.forward_ad.dual_level``), entered by one thread at a time:
-    torch allows no two levels at once, and discovery fits candidates in threads."""
+    torch allows no two levels at once, and discovery fits candidates in threads where it cannot fork."""
     with _DUAL, fwAD.dual_level():
         yield
 

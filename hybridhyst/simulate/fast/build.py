@@ -192,7 +192,7 @@ class Compiled:
 
         n = min(row_threads(), B, max(1, B * T * sub // _MIN_ROW_WORK))
         if threading.current_thread() is not threading.main_thread():
-            n = 1  # a call from a worker thread (discovery's candidates side by side) keeps its rows to itself
+            n = 1  # a call from a worker thread (discovery's candidates in threads) keeps its rows to itself
         if n <= 1:
             rows(0, B)
             return
