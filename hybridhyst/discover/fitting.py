@@ -12,6 +12,7 @@ import multiprocessing
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -74,7 +75,9 @@ def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | No
             interrupts = {signal.SIGINT, signal.SIGTERM}
             held = signal.pthread_sigmask(signal.SIG_BLOCK, interrupts)  # the workers fork without the run's handler
             try:
-                results = pool.map(_job_item, range(len(items)))
+                with warnings.catch_warnings():  # Python ≥ 3.12 warns of a fork beside threads; the workers take
+                    warnings.filterwarnings("ignore", ".*fork", DeprecationWarning)  # no lock those threads hold
+                    results = pool.map(_job_item, range(len(items)))
             finally:
                 signal.pthread_sigmask(signal.SIG_SETMASK, held)
             return list(bar(results, len(items)) if bar else results)
