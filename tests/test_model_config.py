@@ -103,7 +103,6 @@ def test_a_networks_scales_are_written_from_its_state_not_its_constructor():
         assert made.options()["scales"] == {"x": 2.0, "v": 8.0, "F": 3.0}, inputs
 
 
-
 def test_a_model_crosses_to_a_worker_process_as_its_config_and_state():
     """multiprocessing's pickler (what discovery's forked workers send back): torch's parametrized modules refuse
     to pickle, so a model goes as its config and state dict; it comes back equal in every tensor, its dtype and its

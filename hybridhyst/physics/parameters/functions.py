@@ -87,10 +87,10 @@ class Polynomial(ParameterFunction):
     """y = Σ_i coeffs[i] · c^i (coeffs in increasing power, as in seed 001 Table 1 read right to left; ``nonnegative``:
     every coefficient ≥ 0).
 
-    ``nonnegative``: every coefficient is ≥ 0 (identification's boxes start at 0): a quantity that starts at a
-    nonnegative value and grows with a condition that is never negative (the travel a device has made before a
-    record, ``discover.carried_travel``), so that no fit can make it fall, or turn negative, beyond the conditions
-    it was fitted on."""
+    Identification's boxes for a nonnegative one start at 0: it models a quantity that starts at a nonnegative
+    value and grows with a condition that is never negative (the travel a device has made before a record,
+    ``discover.carried_travel``), so that no fit can make it fall, or turn negative, beyond the conditions it was
+    fitted on."""
 
     _attrs = ("coeffs",)
     _kind = "polynomial"
