@@ -12,6 +12,11 @@ Each is given as a multiple of one simulation of the K rows (the residuals alone
 difference between the two Jacobians. Then Levenberg–Marquardt itself, 25 iterations from the same perturbed
 starts, with each Jacobian: wall time, final cost, simulated rows.
 
+The parameter functions' derivatives w.r.t. the coordinates (the factor the sensitivities are chained with;
+``RecordsProblem._value_jacobian``) are taken by reverse mode (``simulate.row_jacobian``); forward-mode AD, the
+obvious tool, runs its dual tensors through torch's Python reference implementations in torch 2.13. Both are timed
+side by side on the first time-grid group, with their largest relative difference.
+
 Problems: ``seed001``, the modified Bouc–Wen + viscous + Coulomb law of seed 001 with its parameters linear in
 the pressure (21 coordinates) on the bundled 1:3 loops at 0.02, 0.05 and 0.08 MPa (0.2 Nm noise); ``brfd``, the
 structure discovery names for the measured BRFD damper (clearance + LuGre + asymmetric Coulomb, 13 coordinates,
@@ -93,6 +98,35 @@ def column_differences(J_exact: torch.Tensor, J_fd: torch.Tensor) -> list[float 
     return [float(n / d) if float(d) >= floor else None for n, d in zip(num, den)]
 
 
+def forward_mode_values(space, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
+    """The parameter values' derivatives ``{effect: {parameter: (N·R, F)}}`` w.r.t. the coordinates ``idx`` by
+    forward-mode AD (coordinate j's direction in its own block of rows): what ``_value_jacobian`` computes."""
+    import torch.autograd.forward_ad as fwAD
+
+    N, F = X.shape[0], len(idx)
+    E = X.new_zeros(N, F, X.shape[1])
+    E[:, torch.arange(F), idx] = 1.0
+    with fwAD.dual_level():
+        values = space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+        tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
+    return {k: {n: X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+                for n, v in d.items()} for k, d in tangents.items()}
+
+
+def value_derivatives(problem, X: torch.Tensor, repeats: int) -> dict:
+    """Forward-mode AD against ``_value_jacobian`` (reverse mode, constants as unit columns): times, ratio, largest
+    relative difference."""
+    space, (_, _, U, _, cond) = problem.space, problem.groups[0]
+    idx, R = list(range(space.dim)), U.shape[0]
+    forward_s = timed(lambda: forward_mode_values(space, X, idx, cond, R), repeats)
+    reverse_s = timed(lambda: problem._value_jacobian(X, idx, cond, R), repeats)
+    fwd, rev = forward_mode_values(space, X, idx, cond, R), problem._value_jacobian(X, idx, cond, R)
+    diff = max(float(((rev[k][n] - v).abs() / v.abs().clamp_min(1e-300)).max()) for k, d in fwd.items()
+               for n, v in d.items())
+    return {"forward_mode_s": forward_s, "reverse_mode_s": reverse_s, "forward_over_reverse": forward_s / reverse_s,
+            "max_relative_difference": diff}
+
+
 def bench_problem(name: str, substeps: int, repeats: int) -> dict:
     from hybridhyst.identify.identify import RecordsProblem
     from hybridhyst.identify.refine import _lm_exact, _lm_jacobian, _lm_residuals, levenberg_marquardt
@@ -125,7 +159,8 @@ def bench_problem(name: str, substeps: int, repeats: int) -> dict:
            "fd_over_exact": fd_s / exact_s,
            "column_difference": dict(zip(space.names, diffs)),
            "column_difference_median": statistics.median(felt), "column_difference_max": max(felt),
-           "columns_below_floor": len(diffs) - len(felt), "lm": lm}
+           "columns_below_floor": len(diffs) - len(felt), "lm": lm,
+           "value_derivatives": value_derivatives(problem, X, repeats)}
     print(f"  {name} substeps={substeps}: simulation {sim_s * 1e3:.1f} ms, exact {exact_s * 1e3:.1f} ms "
           f"({row['exact_over_simulation']:.1f}x), finite differences {fd_s * 1e3:.1f} ms "
           f"({row['fd_over_simulation']:.1f}x); LM exact {lm['exact']['wall_s']:.2f} s "
@@ -159,6 +194,16 @@ def report_markdown(result: dict) -> str:
         lines.append(f"| {r['problem']} | {r['substeps']} | {e['wall_s']:.2f} s | {e['cost']:.5g} | {e['evaluations']} "
                      f"| {f['wall_s']:.2f} s | {f['cost']:.5g} | {f['evaluations']} "
                      f"| **{f['wall_s'] / e['wall_s']:.1f}×** |")
+    lines += ["", f"The parameter values' derivatives w.r.t. every coordinate ({ROWS} rows, the first time-grid "
+              "group): forward-mode AD against reverse mode (`row_jacobian`, constants written as unit columns), "
+              "with the largest relative difference between the two:", "",
+              "| problem | sub-steps | forward mode | reverse mode | forward / reverse | largest difference |",
+              "|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        v = r["value_derivatives"]
+        lines.append(f"| {r['problem']} | {r['substeps']} | {v['forward_mode_s'] * 1e3:.3g} ms "
+                     f"| {v['reverse_mode_s'] * 1e3:.3g} ms | **{v['forward_over_reverse']:.0f}×** "
+                     f"| {v['max_relative_difference']:.1e} |")
     return "\n".join(lines)
 
 

@@ -205,6 +205,33 @@ def _assert_jacobian(model, u, t):
         assert torch.allclose(got[:, j], expected, rtol=10 * RTOL, atol=10 * RTOL * float(got.abs().max())), keys[j]
 
 
+def test_prepared_inputs_give_simulate_and_its_jacobian_for_any_leading_rows(float64):
+    """``simulate.Prepared`` (the inputs checked and their rates taken once, identification's populations on the
+    same records): its simulations and Jacobians are ``simulate``'s and ``simulate_jacobian``'s to the last bit, for
+    every row and for the first rows alone (``rows``), with a start state whose derivatives come from reverse mode;
+    a simulation nothing differentiates (no gradient asked) gives the differentiable one's numbers."""
+    from hybridhyst.simulate import Prepared, SimulationSettings
+
+    model = Constitutive({"spring": EFFECTS["linear_stiffness"](k=2.0),
+                          "dahl": EFFECTS["dahl"](sigma0=30.0, Fc=1.0, z0=0.1)}).double()
+    t = torch.arange(300) * 2e-3
+    u = torch.stack([a * torch.sin(2 * math.pi * 2.0 * t) for a in (0.5, 0.8, 1.1)])
+    with torch.no_grad():
+        P = model.evaluate(None, 3)
+    P["dahl"]["z0"] = torch.tensor([0.2, -0.3, 0.5], dtype=torch.float64)
+    sim = SimulationSettings(backend="fast", substeps=2)
+    prepared = Prepared(model, u, t, settings=sim)
+    for n in (3, 2):
+        rows = prepared.rows(n) if n < 3 else prepared
+        values = {k: {name: v[:n] for name, v in d.items()} for k, d in P.items()}
+        assert torch.equal(rows.simulate(values), simulate(model, u[:n], t, values=values, settings=sim))
+        got, want = rows.jacobian(values), simulate_jacobian(model, u[:n], t, values=values, settings=sim)
+        assert torch.equal(got[0], want[0]) and torch.equal(got[1], want[1]) and got[2] == want[2]
+        assert bool(got[1][..., want[2].index(("dahl", "z0"))].abs().sum() > 0)  # the start state's derivative
+    grad = {k: {name: v.clone().requires_grad_(True) for name, v in d.items()} for k, d in P.items()}
+    assert torch.equal(prepared.simulate(grad).detach(), prepared.simulate(P))
+
+
 def test_jacobian_refuses_what_it_does_not_cover():
     model = Constitutive({"k": EFFECTS["linear_stiffness"](k=1.0), "d": EFFECTS["time_delay"](tau=0.01)}).double()
     t = torch.arange(20) * 1e-3

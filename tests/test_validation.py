@@ -82,6 +82,17 @@ def test_leave_one_condition_out_refits_on_the_others_and_scores_the_one_left_ou
     assert in_sample < 0.9 * loco
 
 
+@pytest.mark.parametrize("kind", ["processes", "threads"])
+def test_the_leave_one_out_refits_side_by_side_score_what_one_after_another_do(kind, monkeypatch):
+    """``workers``: the refits without each operating point run side by side (forked processes, or threads), the
+    score to the last bit what they give one after another."""
+    monkeypatch.setenv("HYBRIDHYST_WORKERS", kind)
+    records = _records()
+    model = polish(_model(0.3), records, SIM, 25, 10.0).model
+    alone = Validation("loco", records, [], lm_steps=25, box_factor=10.0)(model, SIM)
+    assert Validation("loco", records, [], lm_steps=25, box_factor=10.0, workers=2)(model, SIM) == alone
+
+
 def test_a_trend_that_carries_to_a_pressure_left_out_scores_at_the_noise_and_a_constant_does_not():
     records = _records()
     score = Validation("loco", records, [], lm_steps=25, box_factor=10.0)

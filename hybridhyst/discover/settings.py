@@ -84,7 +84,8 @@ class DiscoverSettings:
         too. Either's share of the residual recovered on validation records is reported and sets the flag when
         no noise level is known.
     workers : candidates fitted at once, each in a forked process of its own (``fitting.side_by_side``; a thread
-        where the platform cannot fork). The fits and the result are the same for any number.
+        where the platform cannot fork); so are the leave-one-condition-out refits. The fits and the result are the
+        same for any number.
     cross_check : "confirm" (default), "report" or "off". For every step the rule accepts, also measure the
         out-of-sample error it did not judge (with ``validation="records"``, leave-one-condition-out over the
         training operating points; with ``"loco"``, the validation records'). When that error did not fall by the

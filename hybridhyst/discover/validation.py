@@ -36,7 +36,7 @@ import torch
 from ..analysis.metrics import split_metrics
 from ..data.records import Record
 from ..simulate import SimulationSettings, simulate, simulate_resolved
-from .fitting import polish
+from .fitting import polish, side_by_side
 
 __all__ = ["VALIDATION", "Score", "Validation", "condition_groups", "errors", "improves", "parts", "predict",
            "record_metrics", "rmse_on", "within"]
@@ -140,11 +140,11 @@ class Validation:
     operating points (nothing to leave out); ``"both"`` is then ``"records"``, and says so in ``scored``."""
 
     def __init__(self, kind: str, train: Sequence[Record], val: Sequence[Record], *, lm_steps: int,
-                 box_factor: float):
+                 box_factor: float, workers: int = 1):
         if kind not in VALIDATION:
             raise ValueError(f"unknown validation {kind!r}; choose one of {list(VALIDATION)}")
         self.kind, self.train, self.val = kind, list(train), list(val)
-        self.lm_steps, self.box_factor = lm_steps, box_factor
+        self.lm_steps, self.box_factor, self.workers = lm_steps, box_factor, workers
         self.groups = condition_groups(self.train) if kind != "records" else []
         if kind == "both" and len(self.groups) < 2:  # nothing to leave out: the validation records judge alone
             self.groups = []
@@ -178,17 +178,22 @@ class Validation:
         return Score({**records, "loco": self._loco(model, sim, [])} if self.groups else records)
 
     def _loco(self, model, sim: SimulationSettings, val: list) -> float:
-        """The pooled RMSE of each training group predicted by the model refitted on the others, and of ``val``
-        predicted by the model itself."""
-        records, preds = list(val), predict(model, val, sim)
-        for i, out in enumerate(self.groups):
+        """The pooled RMSE of each training group predicted by the model refitted on the others (the refits
+        ``workers`` at a time), and of ``val`` predicted by the model itself."""
+        def refit(i: int):
             rest = [r for j, g in enumerate(self.groups) if j != i for r in g]
             try:
-                fold = polish(copy.deepcopy(model), rest, sim, self.lm_steps, self.box_factor,
-                              step_doubling=False)
+                return polish(copy.deepcopy(model), rest, sim, self.lm_steps, self.box_factor,
+                              step_doubling=False).model
             except (ValueError, RuntimeError):
-                return math.inf
+                return None
+
+        folds = side_by_side(refit, range(len(self.groups)), self.workers)
+        if any(fold is None for fold in folds):
+            return math.inf
+        records, preds = list(val), predict(model, val, sim)
+        for out, fold in zip(self.groups, folds):
             records += out
-            preds += predict(fold.model, out, sim)
+            preds += predict(fold, out, sim)
         rmse = record_metrics(records, preds).get("rmse", math.inf)
         return rmse if math.isfinite(rmse) else math.inf

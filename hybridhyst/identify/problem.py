@@ -6,14 +6,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import torch
-import torch.autograd.forward_ad as fwAD
 
 from ..data.batch import record_batches
 from ..data.records import Record
 from ..physics.effects.base import signals
 from ..physics.parameters import Constant
-from ..simulate import SimulationSettings, jacobian_covers, simulate, simulate_jacobian
-from ..simulate.api import dual_level
+from ..simulate import Prepared, SimulationSettings, jacobian_covers, row_jacobian
 from ..simulate.inputs import with_rates
 from .search import safe_costs
 from .space import SearchSpace
@@ -45,31 +43,32 @@ class RecordsProblem:
                         b.conditions) for b in record_batches(self.records, input_channels, dtype)]
         self.n_samples = sum(len(r) for r in self.records)
         self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
-        self._repeated: dict[int, tuple] = {}
+        self._prepared: dict[int, Prepared] = {}  # per group: its inputs for the largest population yet
 
-    def _batch(self, X: torch.Tensor, group) -> dict:
-        """The simulation arguments of one time-grid group for the population ``X (N, D)``: member n at record
-        r is batch row n·R + r, with its parameter values at record r's conditions."""
-        _, t, U, _, cond = group
+    def _batch(self, X: torch.Tensor, i: int) -> tuple[Prepared, dict]:
+        """Time-grid group ``i``'s inputs prepared for the population ``X (N, D)`` (``simulate.Prepared``) and each
+        row's parameter values: member n at record r is batch row n·R + r, with its values at record r's
+        conditions."""
+        _, t, U, _, cond = self.groups[i]
         N, R = X.shape[0], U.shape[0]
-        # the inputs repeated once for the largest population yet (every LM iteration asks again): N copies
-        # are a leading slice of them
-        n, rep = self._repeated.get(id(group), (0, None))
-        if N > n:
-            n, rep = N, (U.repeat(N, 1, 1), t.repeat(N, 1) if t.ndim == 2 else t,
-                         {k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()})
-            self._repeated[id(group)] = (n, rep)
-        inputs, times, conditions = rep
-        inputs, times = inputs[: N * R], times[: N * R] if times.ndim == 2 else times
-        return {"inputs": inputs, "t": times, "values": self.space.values(X.to(U.dtype), cond, R),
-                # networks, controls
-                "conditions": {k: v[: N * v.shape[0] // n] for k, v in conditions.items()} or None}
+        # the inputs repeated and prepared once for the largest population yet (every LM iteration asks again):
+        # a smaller one's are a leading slice of them
+        prepared = self._prepared.get(i)
+        if prepared is None or prepared.u.shape[0] < N * R:
+            prepared = self._prepared[i] = Prepared(
+                self.space.model, U.repeat(N, 1, 1), t.repeat(N, 1) if t.ndim == 2 else t,
+                conditions={k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()} or None,  # networks,
+                settings=self.sim)  # controls
+        if prepared.u.shape[0] > N * R:
+            prepared = prepared.rows(N * R)
+        return prepared, self.space.values(X.to(U.dtype), cond, R)
 
     def predict_groups(self, X: torch.Tensor) -> list[torch.Tensor]:
         """Responses ``(N, R_g, T_g)`` of each time-grid group for the population ``X (N, D)``."""
         out = []
-        for group in self.groups:
-            y = simulate(self.space.model, **self._batch(X, group), settings=self.sim)
+        for i, group in enumerate(self.groups):
+            prepared, values = self._batch(X, i)
+            y = prepared.simulate(values)
             out.append(y[..., 0].reshape(X.shape[0], group[2].shape[0], -1))
         return out
 
@@ -93,7 +92,7 @@ class RecordsProblem:
         """``(X (N, D), free (D,) booleans) -> (residuals (N, M), Jacobian (N, M, F))`` w.r.t. the F free
         coordinates, exact: the compiled loop's forward sensitivities w.r.t. the parameter values
         (``simulate_jacobian``, one pass where finite differences take one simulation per coordinate) times
-        the parameter functions' derivatives w.r.t. the coordinates (forward-mode AD). None where the
+        the parameter functions' derivatives w.r.t. the coordinates (reverse mode). None where the
         sensitivities do not cover the model (the reference backend, an input delay, networks): then
         Levenberg–Marquardt takes finite differences."""
         if self.sim.backend != "fast" or not jacobian_covers(self.space.model):
@@ -102,46 +101,65 @@ class RecordsProblem:
 
     def _value_jacobian(self, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
         """``{effect: {parameter: (N·R, F)}}``: each row's parameter values differentiated w.r.t. the free
-        coordinates ``idx``: a constant's is its coordinate's unit column (what forward mode gives it, written
-        directly), the other functions' come from one forward-mode pass (coordinate j's direction in its own block
-        of rows)."""
+        coordinates ``idx``: a constant's is its coordinate's unit column (written directly), the other functions'
+        come from reverse mode (``simulate.api.row_jacobian``)."""
         N, F = X.shape[0], len(idx)
         out: dict[str, dict] = {}
         follow = signals(cond)
         rest = []
         for (k, n), fn in self.space.functions.items():
-            if type(fn) is Constant and fn.condition not in follow:  # its value is its coordinate: a unit column
-                j = self.space.columns[(k, n)][0]
+            cols = self.space.columns[(k, n)]
+            if not cols:  # no coordinates (a fixed value): no derivatives
+                out.setdefault(k, {})[n] = X.new_zeros(N * R, F)
+            elif type(fn).evaluate_batch is Constant.evaluate_batch and fn.condition not in follow:
+                # a constant (constrained ones are parametrized subclasses): its value is its coordinate, a unit column
                 out.setdefault(k, {})[n] = d = X.new_zeros(N * R, F)
-                if j in idx:
-                    d[:, idx.index(j)] = 1.0
+                if cols[0] in idx:
+                    d[:, idx.index(cols[0])] = 1.0
             else:
                 rest.append((k, n))
         if not rest:
             return out
-        E = X.new_zeros(N, F, X.shape[1])
-        E[:, torch.arange(F), idx] = 1.0
-        with dual_level():
-            values = self.space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R,
-                                       only=rest)
-            tangents = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
-        for k, d in tangents.items():
-            out.setdefault(k, {}).update({n: X.new_zeros(N * R, F) if v is None else
-                                          v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F) for n, v in d.items()})
+        # member n's row repeated for each record (row m = n·R + r), every row evaluated at every record's condition
+        # and the value at its own record kept (flat index m·R + r): it depends on that row alone, as
+        # ``row_jacobian`` needs; each coordinate is one value's (a function of a control gives one value per
+        # coordinate), so one pass gives all
+        m = torch.arange(N * R)
+        own = m * R + m % R
+        names, columns = [], []  # (effect, value name) and the coordinates each reads
+        for k, n in rest:
+            cols = self.space.columns[(k, n)]
+            fn = self.space.functions[(k, n)]
+            if fn.condition in follow:
+                names += [(k, n + s) for s in fn.suffixes()]
+                columns += [[j] if j is not None else [] for j in cols]
+            else:
+                names.append((k, n))
+                columns.append([j for j in cols if j is not None])
+
+        def kept(x: torch.Tensor) -> list[torch.Tensor]:
+            values = self.space.values(x, cond, R, only=rest)
+            return [values[k][n].reshape(-1)[own] for k, n in names]
+
+        _, jac = row_jacobian(kept, X.repeat_interleave(R, 0), columns)  # (N·R, values, D)
+        for i, (k, n) in enumerate(names):
+            out.setdefault(k, {})[n] = jac[:, i, idx]
         return out
 
     def _jacobian(self, X: torch.Tensor, free: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         idx = torch.nonzero(torch.as_tensor(free, dtype=torch.bool)).reshape(-1).tolist()
         res, jac = [], []
-        for group in self.groups:
-            _, _, U, Y, cond = group
+        for i, (_, _, U, Y, cond) in enumerate(self.groups):
             N, R = X.shape[0], U.shape[0]
             Xd = X.detach().to(U.dtype)
             dvalues = self._value_jacobian(Xd, idx, cond, R)
-            y, dy, keys = simulate_jacobian(self.space.model, **self._batch(Xd, group), settings=self.sim)
+            prepared, values = self._batch(Xd, i)
+            y, dy, keys = prepared.jacobian(values)
             dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
             res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
             jac.append(_chain(dy[..., 0, :], dvdx).reshape(N, -1, len(idx)))
+        if len(self.groups) == 1:  # no copy of the Jacobian to join the groups
+            return res[0].to(torch.float64), jac[0].to(torch.float64)
         return torch.cat(res, dim=1).to(torch.float64), torch.cat(jac, dim=1).to(torch.float64)
 
     def cost(self, X: torch.Tensor) -> torch.Tensor:
@@ -162,7 +180,10 @@ def _chain(dy: torch.Tensor, dvdx: torch.Tensor) -> torch.Tensor:
     first = dvdx[0]
     if (bool(((first == 0) | (first == 1)).all()) and bool((first.sum(dim=0) == 1).all())
             and torch.equal(dvdx, first.expand_as(dvdx)) and bool(torch.isfinite(dy.sum()))):
-        return dy.index_select(-1, first.argmax(dim=0))
+        pick = first.argmax(dim=0)
+        if pick.shape[0] == dy.shape[-1] and torch.equal(pick, torch.arange(pick.shape[0])):
+            return dy  # every parameter's own column, in order
+        return dy.index_select(-1, pick)
     return dy @ dvdx
 
 

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import contextlib
+import copy
 import math
-import threading
 from collections.abc import Callable
 
 import numpy as np
 import torch
-import torch.autograd.forward_ad as fwAD
 
 from ..physics.effects.base import signals
 from .adaptive import integrate_adaptive
@@ -17,8 +15,8 @@ from .fixed import integrate_fixed
 from .inputs import delayed, input_sample, with_controls, with_rates
 from .settings import SimulationSettings
 
-__all__ = ["REFERENCE", "coarsest_substeps", "jacobian_covers", "resolved_substeps", "simulate", "simulate_jacobian",
-           "simulate_resolved"]
+__all__ = ["REFERENCE", "Prepared", "coarsest_substeps", "jacobian_covers", "resolved_substeps", "row_jacobian",
+           "simulate", "simulate_jacobian", "simulate_resolved"]
 
 # simulate()'s settings where none are given: the plain PyTorch loop (the oracle), the solver's default scheme
 REFERENCE = SimulationSettings(method=None, backend="reference")
@@ -156,39 +154,116 @@ def simulate(model, inputs, t=None, *, dt: float | None = None, conditions=None,
 
     sim = SimulationSettings.of(settings, REFERENCE, method=method, substeps=substeps, solver=solver, rtol=rtol,
                                 atol=atol, backend=backend)
-    method, substeps, solver, backend = sim.method, sim.substeps, sim.solver, sim.backend
-    dtype = _model_dtype(model)
-    u, t = _prepare(inputs, t, dt, dtype, sim.device)
-    B = u.shape[0]
-    cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
-    P = model.evaluate(cond, B) if values is None else _check_values(model, values, B, cond)
-    U = with_rates(u, t)
-    tau = model.input_delay(P)
-    if tau is not None:
-        U = delayed(U, t, tau)
-    U, controls = with_controls(U, cond)
-    state0 = _initial_state(model, P, B, initial_state, dtype, u.device, _first(cond, controls))
+    return Prepared(model, inputs, t, dt=dt, conditions=conditions, settings=sim).simulate(
+        values, initial_state=initial_state, adjoint=adjoint, options=options, return_states=return_states)
 
-    if backend == "fast":
-        from .fast import simulate_fast
 
-        return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
-                             return_states=return_states, controls=controls)
-    if solver == "fixed":
-        states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps, controls=controls)
-    elif solver == "torchdiffeq":
-        if t.ndim != 1:
-            raise ValueError("solver='torchdiffeq' integrates every row on one time grid; give t as (time,) or "
-                             "simulate records with different grids separately")
-        if model.state_bounds(P) is not None:
-            raise ValueError("solver='torchdiffeq' cannot project bounded states (the play operator of backlash); "
-                             "use solver='fixed'")
-        if values is not None:
-            raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs solver='fixed'")
-        states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=sim.rtol,
-                                    atol=sim.atol, adjoint=adjoint, options=options, controls=controls)
-    y = _outputs(model, states, U, P, controls)
-    return (y, states) if return_states else y
+class Prepared:
+    """What ``simulate`` and ``simulate_jacobian`` do before they read the parameter values -- the inputs checked,
+    their rates, the conditions and control channels -- done once for the simulations of many parameter sets on
+    the same inputs (identification: every iteration of a fit simulates the same records).
+
+    ``Prepared(model, inputs, t, dt=, conditions=, settings=)`` takes ``simulate``'s arguments (``settings``
+    resolved: a ``SimulationSettings``); ``simulate(values, ...)`` and ``jacobian(values, ...)`` are then
+    ``simulate``'s and ``simulate_jacobian``'s results for those inputs. ``rows(n)``: the same for the first ``n``
+    batch rows (views: a population of any size simulated on inputs prepared for the largest)."""
+
+    def __init__(self, model, inputs, t=None, *, dt: float | None = None, conditions=None,
+                 settings: SimulationSettings):
+        self.model, self.sim = model, settings
+        self.dtype = _model_dtype(model)
+        self.u, self.t = _prepare(inputs, t, dt, self.dtype, settings.device)
+        self.cond = _as_conditions(conditions, self.u.shape[0], self.dtype, self.u.device, self.u.shape[1])
+        self.rates = with_rates(self.u, self.t)
+        self.U, self.controls = with_controls(self.rates, self.cond)
+
+    def rows(self, n: int) -> Prepared:
+        """The first ``n`` rows (views of these inputs)."""
+        out = copy.copy(self)
+        out.u, out.rates, out.U = self.u[:n], self.rates[:n], self.U[:n]
+        out.t = self.t[:n] if self.t.ndim == 2 else self.t
+        out.cond = None if self.cond is None else {k: v[:n] for k, v in self.cond.items()}
+        return out
+
+    def _values(self, values):
+        """Each row's parameter values: the model's own (``model.evaluate``) or the given ones, checked."""
+        B = self.u.shape[0]
+        return self.model.evaluate(self.cond, B) if values is None else _check_values(self.model, values, B,
+                                                                                       self.cond)
+
+    def simulate(self, values=None, *, initial_state=None, adjoint: bool = False, options: dict | None = None,
+                 return_states: bool = False):
+        """``simulate``'s result for these inputs with ``values`` (None: the model's own)."""
+        model, sim, t, cond = self.model, self.sim, self.t, self.cond
+        method, substeps, solver, backend = sim.method, sim.substeps, sim.solver, sim.backend
+        B = self.u.shape[0]
+        P = self._values(values)
+        U, controls = self.U, self.controls
+        tau = model.input_delay(P)
+        if tau is not None:
+            U, controls = with_controls(delayed(self.rates, t, tau), cond)
+        state0 = _initial_state(model, P, B, initial_state, self.dtype, self.u.device, _first(cond, controls))
+
+        if backend == "fast":
+            from .fast import simulate_fast
+
+            return simulate_fast(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
+                                 return_states=return_states, controls=controls)
+        if solver == "fixed":
+            states = integrate_fixed(model, U, t, P, state0, method=method or "rk4", substeps=substeps,
+                                     controls=controls)
+        elif solver == "torchdiffeq":
+            if t.ndim != 1:
+                raise ValueError("solver='torchdiffeq' integrates every row on one time grid; give t as (time,) or "
+                                 "simulate records with different grids separately")
+            if model.state_bounds(P) is not None:
+                raise ValueError("solver='torchdiffeq' cannot project bounded states (the play operator of "
+                                 "backlash); use solver='fixed'")
+            if values is not None:
+                raise ValueError("solver='torchdiffeq' evaluates the model's own parameters; values= needs "
+                                 "solver='fixed'")
+            states = integrate_adaptive(model, U, t, cond, state0, method=method or "dopri5", rtol=sim.rtol,
+                                        atol=sim.atol, adjoint=adjoint, options=options, controls=controls)
+        y = _outputs(model, states, U, P, controls)
+        return (y, states) if return_states else y
+
+    def jacobian(self, values: dict, *, initial_state=None, weights: bool = False):
+        """``simulate_jacobian``'s result for these inputs with ``values``."""
+        from .fast.function import compiled, tangent_fast
+
+        model, t, controls, dtype = self.model, self.t, self.controls, self.dtype
+        B, device = self.u.shape[0], self.u.device
+        P = self._values(values)
+        if _delayed(model):
+            raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it)")
+        eq = compiled(model, controls)[0]
+        keys = list(eq.param_keys)
+        first = _first(self.cond, controls)
+        s0 = _initial_state(model, P, B, initial_state, dtype, device, first)
+        start = None if initial_state is None else torch.as_tensor(initial_state, dtype=dtype, device=device)
+        given = start is not None and _whole_state(model, start)  # held fixed; otherwise [x, v] under the effects'
+        base = None if start is None or given else start.expand(B, -1)
+        n = len(keys) + sum(net.n_weights for net in eq.networks)
+        ds0 = s0.new_zeros(B, s0.shape[1], n)
+        # the initial state's derivatives w.r.t. the parameters of the effects with a state (``Model.initial_state``
+        # reads no other): reverse mode, one pass per state component, where the start depends on them at all
+        stateful = [j for j, (k, _) in enumerate(keys) if k in model.effects and model.effects[k].state_dim]
+        if stateful and s0.shape[1] and not given:
+            def start_state(x: torch.Tensor) -> list[torch.Tensor]:
+                rows = {k: dict(P[k]) for k in {keys[j][0] for j in stateful}}
+                for i, j in enumerate(stateful):
+                    k, name = keys[j]
+                    rows[k][name] = x[:, i]
+                s = model.initial_state({**P, **rows}, B, controls=first, base=base)
+                return list(s.unbind(1)) if s.requires_grad else []
+
+            x = torch.stack([P[keys[j][0]][keys[j][1]].expand(B) for j in stateful], dim=1)
+            _, jac = row_jacobian(start_state, x)
+            if jac.shape[1]:
+                ds0[..., stateful] = jac
+        y, dy = tangent_fast(model, self.U, t, P, s0, ds0, method=self.sim.method or "rk4",
+                             substeps=self.sim.substeps, controls=controls)
+        return y, (dy if weights else dy[..., : len(keys)]), keys
 
 
 def jacobian_covers(model) -> bool:
@@ -206,15 +281,31 @@ def _delayed(model) -> bool:
     return any(type(e).input_delay is not Effect.input_delay for e in model.effects.values())
 
 
-_DUAL = threading.Lock()
-
-
-@contextlib.contextmanager
-def dual_level():
-    """torch's forward-AD level (``torch.autograd.forward_ad.dual_level``), entered by one thread at a time:
-    torch allows no two levels at once, and discovery fits candidates in threads where it cannot fork."""
-    with _DUAL, fwAD.dual_level():
-        yield
+def row_jacobian(fn: Callable[[torch.Tensor], list[torch.Tensor]], x: torch.Tensor,
+                 columns: list[list[int]] | None = None) -> tuple[list, torch.Tensor]:
+    """``fn(x)`` (a list of ``(rows,)`` tensors) and its derivatives ``(rows, outputs, D)`` w.r.t. ``x (rows, D)``,
+    for a function whose row b reads row b of ``x`` alone (parameter values, start states): one reverse-mode pass
+    per output (of its sum) gives every row's; with ``columns`` (the columns of ``x`` each output reads, no column
+    read by two) one pass of their sum gives all. Zero where an output does not depend on ``x``. Forward-mode AD,
+    the natural tool, runs its dual tensors through Python reference implementations in torch 2.13 (hundreds of µs
+    per elementwise operation): ``scripts/bench_jacobian.py``."""
+    with torch.enable_grad():
+        leaf = x.detach().requires_grad_(True)
+        outputs = fn(leaf)
+        jac = x.new_zeros(x.shape[0], len(outputs), x.shape[1])
+        if columns is not None:
+            live = [y for y in outputs if y.requires_grad]
+            g = torch.autograd.grad(sum(y.sum() for y in live), leaf)[0] if live else None
+            for i, cols in enumerate(columns):
+                if g is not None and outputs[i].requires_grad:
+                    jac[:, i, cols] = g[:, cols]
+        else:
+            for i, y in enumerate(outputs):
+                if y.requires_grad:
+                    (g,) = torch.autograd.grad(y.sum(), leaf, retain_graph=i < len(outputs) - 1, allow_unused=True)
+                    if g is not None:
+                        jac[:, i] = g
+    return [y.detach() for y in outputs], jac
 
 
 def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None = None, conditions=None,
@@ -238,47 +329,9 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     parameters as ``(effect, name)`` (the structure's under ``"structure"``) in the order of ``dy``'s last axis
     (the weights' columns follow them).
     """
-    from .fast.function import compiled, tangent_fast
-
     sim = SimulationSettings.of(settings, method=method, substeps=substeps)
-    method, substeps = sim.method, sim.substeps
-    dtype = _model_dtype(model)
-    u, t = _prepare(inputs, t, dt, dtype, sim.device)
-    B = u.shape[0]
-    cond = _as_conditions(conditions, B, dtype, u.device, u.shape[1])
-    P = _check_values(model, values, B, cond)
-    if _delayed(model):
-        raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it)")
-    U, controls = with_controls(with_rates(u, t), cond)
-    eq = compiled(model, controls)[0]
-    keys = list(eq.param_keys)
-    first = _first(cond, controls)
-    s0 = _initial_state(model, P, B, initial_state, dtype, u.device, first)
-    start = None if initial_state is None else torch.as_tensor(initial_state, dtype=dtype, device=u.device)
-    given = start is not None and _whole_state(model, start)  # held fixed; otherwise [x, v] under the effects'
-    base = None if start is None or given else start.expand(B, -1)
-    n = len(keys) + sum(net.n_weights for net in eq.networks)
-    ds0 = s0.new_zeros(B, s0.shape[1], n)
-    # the initial state's derivatives: forward-mode AD, each parameter in its own B rows; only an effect with a
-    # state reads its parameters there (``Model.initial_state``), so only theirs get rows
-    stateful = [j for j, (k, _) in enumerate(keys) if k in model.effects and model.effects[k].state_dim]
-    m = len(stateful)
-    if m and s0.shape[1] and not given:
-        with dual_level():
-            rows = {k: {name: v.expand(B).repeat(m) for name, v in P[k].items()}
-                    for k in {keys[j][0] for j in stateful}}
-            for i, j in enumerate(stateful):
-                k, name = keys[j]
-                e = torch.zeros(m, B, dtype=dtype, device=u.device)
-                e[i] = 1.0
-                rows[k][name] = fwAD.make_dual(rows[k][name], e.reshape(-1))
-            first_m = {c: v.repeat(m) for c, v in (first or {}).items()}
-            tangent = fwAD.unpack_dual(model.initial_state({**P, **rows}, m * B, controls=first_m,
-                                                           base=None if base is None else base.repeat(m, 1))).tangent
-        if tangent is not None:
-            ds0[..., stateful] = tangent.reshape(m, B, -1).permute(1, 2, 0)
-    y, dy = tangent_fast(model, U, t, P, s0, ds0, method=method or "rk4", substeps=substeps, controls=controls)
-    return y, (dy if weights else dy[..., : len(keys)]), keys
+    return Prepared(model, inputs, t, dt=dt, conditions=conditions, settings=sim).jacobian(
+        values, initial_state=initial_state, weights=weights)
 
 
 def _all_finite(x: torch.Tensor) -> bool:

@@ -88,15 +88,22 @@ def _tableau(method: str):
     return out
 
 
+def _forward(theta, U, s0, h, module, method, substeps, output_dim) -> tuple:
+    """The compiled forward loop on host arrays: ``(U, h, th, states, y)`` as numpy."""
+    c, A, bw = _tableau(method)
+    th, Un, s0n, hn = (_numpy(x) for x in (theta, U, s0, h))
+    B, T = Un.shape[0], Un.shape[1]
+    states = np.empty((B, T, s0n.shape[1]))
+    y = np.empty((B, T, output_dim))
+    module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
+    return Un, hn, th, states, y
+
+
 class _FastSimulate(torch.autograd.Function):
     @staticmethod
     def forward(ctx, theta, U, s0, h, module, method, substeps, output_dim):
+        Un, hn, th, states, y = _forward(theta, U, s0, h, module, method, substeps, output_dim)
         c, A, bw = _tableau(method)
-        th, Un, s0n, hn = (_numpy(x) for x in (theta, U, s0, h))
-        B, T = Un.shape[0], Un.shape[1]
-        states = np.empty((B, T, s0n.shape[1]))
-        y = np.empty((B, T, output_dim))
-        module.forward(Un, hn, th, s0n, c, A, bw, int(substeps), states, y)
         ctx.save_for_backward(theta, U, s0)
         ctx.numpy = (Un, hn, th, states, c, A, bw, int(substeps), module, y.shape)
         if any(ctx.needs_input_grad):
@@ -140,8 +147,12 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
     B = U.shape[0]
     theta = _theta(eq, P, model, B, U)
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1).contiguous()  # (batch, time - 1): each row its own grid
-    y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
-                                    model.output_dim)
+    if torch.is_grad_enabled() and any(x.requires_grad for x in (theta, U, state0)):
+        y, states = _FastSimulate.apply(theta, U.contiguous(), state0, h, module, method, int(substeps),
+                                        model.output_dim)
+    else:  # nothing to differentiate (a fit's residuals): the loop without autograd's bookkeeping
+        *_, S, Y = _forward(theta, U, state0, h, module, method, int(substeps), model.output_dim)
+        y, states = (torch.from_numpy(a).to(dtype=U.dtype, device=U.device) for a in (Y, S))
     return (y, states) if return_states else y
 
 
