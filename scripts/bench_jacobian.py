@@ -19,8 +19,8 @@ side by side on the first time-grid group, with their largest relative differenc
 
 Problems: ``seed001``, the modified Bouc–Wen + viscous + Coulomb law of seed 001 with its parameters linear in
 the pressure (21 coordinates) on the bundled 1:3 loops at 0.02, 0.05 and 0.08 MPa (0.2 Nm noise); ``brfd``, the
-structure discovery names for the measured BRFD damper (clearance + LuGre + asymmetric Coulomb, 13 coordinates,
-built from ``experiments/brfd_discovery/discovery.json``) on its seven 36 lb training tests (thinned as discovery
+structure discovery names for the measured BRFD damper (built from ``experiments/brfd_discovery/discovery.json``:
+today clearance + LuGre, 10 coordinates) on its seven 36 lb training tests (thinned as discovery
 thins them).
 
     PYTHONPATH=. python scripts/bench_jacobian.py --json bench_jacobian.json --write-readme

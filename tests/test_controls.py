@@ -172,3 +172,37 @@ def test_a_function_of_a_control_says_which_effects_act_on_the_control_it_reads(
     early = Constitutive({"damper": EFFECTS["viscous"](c={**LINEAR, "intercept": 0.5, "slope": 2.0}),
                           "coil": EFFECTS["control_lag"](control="voltage", eta=50.0)}).parameter_table()
     assert "after" not in early["damper"]["c"]["value"]
+
+
+def test_parameter_derivatives_of_functions_of_a_control_are_forward_ads(float64):
+    """``RecordsProblem``'s reverse-mode derivatives of the parameter values w.r.t. the coordinates, for functions
+    of a control (one value per coordinate, evaluated at every stage): forward-mode AD's to the last bit, with a
+    coefficient held."""
+    import torch.autograd.forward_ad as fwAD
+
+    from hybridhyst.data.records import Record
+    from hybridhyst.identify.problem import RecordsProblem
+    from hybridhyst.identify.space import SearchSpace
+
+    model = _spencer_model()
+    t = (torch.arange(200) * 2e-4).numpy()
+    volts = _voltage(3, 200, 2e-4, seed=4).numpy()
+    records = [Record(name=f"r{i}", t=t, x=1.5 * np.sin(2 * math.pi * 2.5 * t), y=np.zeros(200),
+                      controls={"voltage": volts[i]}) for i in range(3)]
+    held = "damper.c0.c1"
+    space = SearchSpace(model, free=[n for n in SearchSpace(model).names if n != held])
+    problem = RecordsProblem(space, records)
+    X = space.initial()[None].expand(2, -1).clone() * torch.tensor([[1.0], [1.05]], dtype=torch.float64)
+    (_, _, U, _, cond), idx = problem.groups[0], list(range(space.dim))
+    R, (N, F) = U.shape[0], (X.shape[0], len(idx))
+    E = X.new_zeros(N, F, space.dim)
+    E[:, torch.arange(F), idx] = 1.0
+    with fwAD.dual_level():
+        values = space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
+        ad = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
+    got = problem._value_jacobian(X, idx, cond, R)
+    assert "alpha.c1" in got["damper"] and "c0.c0" in got["damper"]
+    for k, d in ad.items():
+        for n, v in d.items():
+            want = X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+            assert torch.equal(got[k][n], want), (k, n)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -291,6 +292,18 @@ def _polish_or_swap(alt):
         return SimpleNamespace(model=reduced)
     return SimpleNamespace(model=None, started_at=reduced["value"])
 
+
+def test_workers_are_threads_where_a_forked_child_could_not_run_autograd(monkeypatch):
+    """On a machine with a CUDA device torch refuses autograd in a forked child once the parent has run a backward
+    pass (identification does); the fits' Jacobians need it, so the workers are threads there."""
+    import os
+
+    from hybridhyst.discover.fitting import side_by_side
+
+    if sys.platform == "linux":  # processes here (CPU only)
+        assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) != {os.getpid()}
+    monkeypatch.setattr("torch.cuda.is_available", lambda: True)
+    assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) == {os.getpid()}
 
 @pytest.mark.parametrize("kind", ["processes", "threads"])
 def test_a_swap_starts_from_its_removals_refit_for_any_number_of_workers(kind, monkeypatch):

@@ -66,7 +66,7 @@ def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | No
         return [fn(item) for item in (bar(items, len(items)) if bar else items)]
     global _JOB
     forks = (sys.platform == "linux" and not multiprocessing.current_process().daemon
-             and os.environ.get("HYBRIDHYST_WORKERS", "processes") != "threads")
+             and os.environ.get("HYBRIDHYST_WORKERS", "processes") != "threads" and _autograd_forks())
     if forks and _JOB is None:  # not from inside a worker's own item
         _JOB = (fn, items)
         pool = ProcessPoolExecutor(max_workers=min(workers, len(items)), initializer=_worker_setup,
@@ -93,6 +93,13 @@ def side_by_side(fn: Callable, items: Sequence, workers: int, bar: Callable | No
 
 
 _JOB: tuple[Callable, list] | None = None  # side_by_side's (fn, items) while its forked workers run
+
+
+def _autograd_forks() -> bool:
+    """Whether a forked worker may run autograd (the fits' exact Jacobians take reverse-mode derivatives): not where
+    torch sees a CUDA device, since once the parent has run a backward pass (identification does) torch refuses
+    autograd in a forked child there (its device threads do not survive a fork); the workers are threads then."""
+    return not torch.cuda.is_available()
 
 
 def _worker_setup() -> None:

@@ -108,7 +108,7 @@ class Loop:
         for r in self.train:
             r.require_samples(16, "discovery (identifying a candidate effect)")
         self.score = Validation(o.validation, self.train, self.val, lm_steps=o.lm_steps,
-                                box_factor=o.box_factor, workers=o.workers)  # refuses a bad kind
+                                box_factor=o.box_factor, workers=int(o.workers))  # refuses a bad kind
         # the noise level the rule judges "within the noise" by: the user's, else estimated from the data
         self.noise = {"sd": o.noise_sd, "source": "given"} if o.noise_sd else {
             "sd": noise_sd([r.y for r in self.train]),
@@ -190,7 +190,7 @@ class Loop:
             return None
         if o.validation == "records" and len(self.score.groups or condition_groups(self.train)) >= 2:
             return "loco", Validation("loco", self.train, [], lm_steps=o.lm_steps, box_factor=o.box_factor,
-                                      workers=o.workers)
+                                      workers=int(o.workers))
         if o.validation == "loco" and self.val:
             return "records", Validation("records", self.train, self.val, lm_steps=o.lm_steps,
                                          box_factor=o.box_factor)

@@ -54,12 +54,12 @@ class RecordsProblem:
         # the inputs repeated and prepared once for the largest population yet (every LM iteration asks again):
         # a smaller one's are a leading slice of them
         prepared = self._prepared.get(i)
-        if prepared is None or prepared.u.shape[0] < N * R:
+        if prepared is None or prepared.batch < N * R:
             prepared = self._prepared[i] = Prepared(
                 self.space.model, U.repeat(N, 1, 1), t.repeat(N, 1) if t.ndim == 2 else t,
                 conditions={k: v.repeat(N, *[1] * (v.ndim - 1)) for k, v in cond.items()} or None,  # networks,
                 settings=self.sim)  # controls
-        if prepared.u.shape[0] > N * R:
+        if prepared.batch > N * R:
             prepared = prepared.rows(N * R)
         return prepared, self.space.values(X.to(U.dtype), cond, R)
 
@@ -181,7 +181,7 @@ def _chain(dy: torch.Tensor, dvdx: torch.Tensor) -> torch.Tensor:
     if (bool(((first == 0) | (first == 1)).all()) and bool((first.sum(dim=0) == 1).all())
             and torch.equal(dvdx, first.expand_as(dvdx)) and bool(torch.isfinite(dy.sum()))):
         pick = first.argmax(dim=0)
-        if pick.shape[0] == dy.shape[-1] and torch.equal(pick, torch.arange(pick.shape[0])):
+        if pick.shape[0] == dy.shape[-1] and torch.equal(pick, torch.arange(pick.shape[0], device=pick.device)):
             return dy  # every parameter's own column, in order
         return dy.index_select(-1, pick)
     return dy @ dvdx

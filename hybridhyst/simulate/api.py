@@ -172,37 +172,38 @@ class Prepared:
                  settings: SimulationSettings):
         self.model, self.sim = model, settings
         self.dtype = _model_dtype(model)
-        self.u, self.t = _prepare(inputs, t, dt, self.dtype, settings.device)
-        self.cond = _as_conditions(conditions, self.u.shape[0], self.dtype, self.u.device, self.u.shape[1])
-        self.rates = with_rates(self.u, self.t)
+        u, self.t = _prepare(inputs, t, dt, self.dtype, settings.device)
+        self.batch, self.device = u.shape[0], u.device
+        self.cond = _as_conditions(conditions, self.batch, self.dtype, u.device, u.shape[1])
+        self.rates = with_rates(u, self.t)
         self.U, self.controls = with_controls(self.rates, self.cond)
 
     def rows(self, n: int) -> Prepared:
-        """The first ``n`` rows (views of these inputs)."""
+        """The first ``n`` rows (views of these inputs; a grid per row stays one, even where those rows share
+        it: identification's slices are whole populations, each on every record's grid)."""
         out = copy.copy(self)
-        out.u, out.rates, out.U = self.u[:n], self.rates[:n], self.U[:n]
+        out.batch, out.rates, out.U = n, self.rates[:n], self.U[:n]
         out.t = self.t[:n] if self.t.ndim == 2 else self.t
         out.cond = None if self.cond is None else {k: v[:n] for k, v in self.cond.items()}
         return out
 
     def _values(self, values):
         """Each row's parameter values: the model's own (``model.evaluate``) or the given ones, checked."""
-        B = self.u.shape[0]
-        return self.model.evaluate(self.cond, B) if values is None else _check_values(self.model, values, B,
-                                                                                       self.cond)
+        return (self.model.evaluate(self.cond, self.batch) if values is None
+                else _check_values(self.model, values, self.batch, self.cond))
 
     def simulate(self, values=None, *, initial_state=None, adjoint: bool = False, options: dict | None = None,
                  return_states: bool = False):
         """``simulate``'s result for these inputs with ``values`` (None: the model's own)."""
         model, sim, t, cond = self.model, self.sim, self.t, self.cond
         method, substeps, solver, backend = sim.method, sim.substeps, sim.solver, sim.backend
-        B = self.u.shape[0]
+        B = self.batch
         P = self._values(values)
         U, controls = self.U, self.controls
         tau = model.input_delay(P)
         if tau is not None:
             U, controls = with_controls(delayed(self.rates, t, tau), cond)
-        state0 = _initial_state(model, P, B, initial_state, self.dtype, self.u.device, _first(cond, controls))
+        state0 = _initial_state(model, P, B, initial_state, self.dtype, self.device, _first(cond, controls))
 
         if backend == "fast":
             from .fast import simulate_fast
@@ -232,7 +233,7 @@ class Prepared:
         from .fast.function import compiled, tangent_fast
 
         model, t, controls, dtype = self.model, self.t, self.controls, self.dtype
-        B, device = self.u.shape[0], self.u.device
+        B, device = self.batch, self.device
         P = self._values(values)
         if _delayed(model):
             raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it)")
@@ -295,7 +296,7 @@ def row_jacobian(fn: Callable[[torch.Tensor], list[torch.Tensor]], x: torch.Tens
         jac = x.new_zeros(x.shape[0], len(outputs), x.shape[1])
         if columns is not None:
             live = [y for y in outputs if y.requires_grad]
-            g = torch.autograd.grad(sum(y.sum() for y in live), leaf)[0] if live else None
+            g = torch.autograd.grad(sum(y.sum() for y in live), leaf, allow_unused=True)[0] if live else None
             for i, cols in enumerate(columns):
                 if g is not None and outputs[i].requires_grad:
                     jac[:, i, cols] = g[:, cols]
