@@ -178,11 +178,10 @@ def test_parameter_derivatives_of_functions_of_a_control_are_forward_ads(float64
     """``RecordsProblem``'s reverse-mode derivatives of the parameter values w.r.t. the coordinates, for functions
     of a control (one value per coordinate, evaluated at every stage): forward-mode AD's to the last bit, with a
     coefficient held."""
-    import torch.autograd.forward_ad as fwAD
-
     from hybridhyst.data.records import Record
     from hybridhyst.identify.problem import RecordsProblem
     from hybridhyst.identify.space import SearchSpace
+    from tests.test_identify_refine import forward_mode_values
 
     model = _spencer_model()
     t = (torch.arange(200) * 2e-4).numpy()
@@ -194,15 +193,8 @@ def test_parameter_derivatives_of_functions_of_a_control_are_forward_ads(float64
     problem = RecordsProblem(space, records)
     X = space.initial()[None].expand(2, -1).clone() * torch.tensor([[1.0], [1.05]], dtype=torch.float64)
     (_, _, U, _, cond), idx = problem.groups[0], list(range(space.dim))
-    R, (N, F) = U.shape[0], (X.shape[0], len(idx))
-    E = X.new_zeros(N, F, space.dim)
-    E[:, torch.arange(F), idx] = 1.0
-    with fwAD.dual_level():
-        values = space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
-        ad = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
-    got = problem._value_jacobian(X, idx, cond, R)
+    got = problem._value_jacobian(X, idx, cond, U.shape[0])
     assert "alpha.c1" in got["damper"] and "c0.c0" in got["damper"]
-    for k, d in ad.items():
-        for n, v in d.items():
-            want = X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+    for k, d in forward_mode_values(space, X, idx, cond, U.shape[0]).items():
+        for n, want in d.items():
             assert torch.equal(got[k][n], want), (k, n)

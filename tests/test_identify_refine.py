@@ -75,8 +75,6 @@ def test_parameter_derivatives_are_forward_ads_to_the_last_bit(float64):
     mode (``row_jacobian``; every Jacobian of every fit asks for them): the numbers must be forward-mode AD's, exactly
     for constants and polynomial trends (products in the same order), to rounding for an exponential law (the chain
     rule's factors multiplied in the other order), with a held coordinate and a subset of free coordinates."""
-    import torch.autograd.forward_ad as fwAD
-
     from hybridhyst.physics.parameters import ExpRise
 
     dahl = _dahl(sigma0=10.0, c=0.5)
@@ -92,22 +90,29 @@ def test_parameter_derivatives_are_forward_ads_to_the_last_bit(float64):
     X = space.initial()[None].expand(3, -1).clone() * torch.tensor([[1.0], [1.1], [0.9]], dtype=torch.float64)
     for idx in (list(range(space.dim)), [0, space.dim - 1]):
         _, _, U, _, cond = problem.groups[0]
-        R, (N, F) = U.shape[0], (X.shape[0], len(idx))
-        E = X.new_zeros(N, F, space.dim)
-        E[:, torch.arange(F), idx] = 1.0
-        with fwAD.dual_level():
-            values = space.values(fwAD.make_dual(X.repeat_interleave(F, 0), E.reshape(N * F, -1)), cond, R)
-            ad = {k: {n: fwAD.unpack_dual(v).tangent for n, v in d.items()} for k, d in values.items()}
-        got = problem._value_jacobian(X, idx, cond, R)
+        ad = forward_mode_values(space, X, idx, cond, U.shape[0])
+        got = problem._value_jacobian(X, idx, cond, U.shape[0])
         assert got.keys() == ad.keys()
         for k, d in ad.items():
             assert got[k].keys() == d.keys()
-            for n, v in d.items():
-                want = X.new_zeros(N * R, F) if v is None else v.reshape(N, F, R).transpose(1, 2).reshape(N * R, F)
+            for n, want in d.items():
                 if (k, n) == ("spring", "k"):
                     assert torch.allclose(got[k][n], want, rtol=1e-15, atol=0.0) and bool(want.abs().sum() > 0)
                 else:
                     assert torch.equal(got[k][n], want), (k, n)
+
+
+def forward_mode_values(space, X: torch.Tensor, idx: list[int], cond, R: int) -> dict:
+    """The oracle: each row's parameter values' derivatives ``{effect: {value: (N·R, F)}}`` w.r.t. the coordinates
+    ``idx`` by forward-mode AD (``scripts/bench_jacobian.py``'s, which times it against reverse mode)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "bench_jacobian.py"
+    spec = importlib.util.spec_from_file_location("bench_jacobian", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench.forward_mode_values(space, X, idx, cond, R)
 
 
 def test_a_selection_of_parameter_derivatives_is_the_batched_product_to_the_last_bit(float64):
