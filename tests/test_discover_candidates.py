@@ -261,7 +261,6 @@ def test_side_by_side_hands_a_closure_to_forked_workers_and_keeps_the_order(monk
     results come back in the items' order), the same results in threads (``HYBRIDHYST_WORKERS=threads``)."""
     import multiprocessing
     import os
-    import sys
 
     from hybridhyst.discover.fitting import side_by_side
 
@@ -293,17 +292,6 @@ def _polish_or_swap(alt):
     return SimpleNamespace(model=None, started_at=reduced["value"])
 
 
-def test_workers_are_threads_where_a_forked_child_could_not_run_autograd(monkeypatch):
-    """On a machine with a CUDA device torch refuses autograd in a forked child once the parent has run a backward
-    pass (identification does); the fits' Jacobians need it, so the workers are threads there."""
-    import os
-
-    from hybridhyst.discover.fitting import side_by_side
-
-    if sys.platform == "linux":  # processes here (CPU only)
-        assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) != {os.getpid()}
-    monkeypatch.setattr("torch.cuda.is_available", lambda: True)
-    assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) == {os.getpid()}
 
 @pytest.mark.parametrize("kind", ["processes", "threads"])
 def test_a_swap_starts_from_its_removals_refit_for_any_number_of_workers(kind, monkeypatch):
@@ -323,3 +311,16 @@ def test_a_swap_starts_from_its_removals_refit_for_any_number_of_workers(kind, m
     side = refit_alternatives(_polish_or_swap, alternatives(), workers=2)
     assert [getattr(f, "started_at", None) for f in one] == [None, 42.0, 42.0, 2.0]
     assert [getattr(f, "started_at", None) for f in side] == [None, 42.0, 42.0, 2.0]
+
+
+def test_workers_are_threads_where_a_forked_child_could_not_run_autograd(monkeypatch):
+    """On a machine with a CUDA device torch refuses autograd in a forked child once the parent has run a backward
+    pass (identification does); the fits' Jacobians need it, so the workers are threads there."""
+    import os
+
+    from hybridhyst.discover.fitting import side_by_side
+
+    if sys.platform == "linux":  # processes here (CPU only)
+        assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) != {os.getpid()}
+    monkeypatch.setattr("torch.cuda.is_available", lambda: True)
+    assert set(side_by_side(lambda _: os.getpid(), range(4), 2)) == {os.getpid()}

@@ -106,7 +106,8 @@ class RecordsProblem:
         N, F = X.shape[0], len(idx)
         out: dict[str, dict] = {}
         follow = signals(cond)
-        rest = []
+        rest, names, columns = [], [], []  # the other functions; their values (effect, name) and the coordinates
+        # each reads (a function of a control gives one value per coordinate)
         for (k, n), fn in self.space.functions.items():
             cols = self.space.columns[(k, n)]
             if not cols:  # no coordinates (a fixed value): no derivatives
@@ -116,26 +117,21 @@ class RecordsProblem:
                 out.setdefault(k, {})[n] = d = X.new_zeros(N * R, F)
                 if cols[0] in idx:
                     d[:, idx.index(cols[0])] = 1.0
+            elif fn.condition in follow:
+                rest.append((k, n))
+                names += [(k, n + s) for s in fn.suffixes()]
+                columns += [[j] if j is not None else [] for j in cols]
             else:
                 rest.append((k, n))
+                names.append((k, n))
+                columns.append([j for j in cols if j is not None])
         if not rest:
             return out
         # member n's row repeated for each record (row m = n·R + r), every row evaluated at every record's condition
         # and the value at its own record kept (flat index m·R + r): it depends on that row alone, as
-        # ``row_jacobian`` needs; each coordinate is one value's (a function of a control gives one value per
-        # coordinate), so one pass gives all
+        # ``row_jacobian`` needs; each coordinate is one value's, so one pass gives all
         m = torch.arange(N * R)
         own = m * R + m % R
-        names, columns = [], []  # (effect, value name) and the coordinates each reads
-        for k, n in rest:
-            cols = self.space.columns[(k, n)]
-            fn = self.space.functions[(k, n)]
-            if fn.condition in follow:
-                names += [(k, n + s) for s in fn.suffixes()]
-                columns += [[j] if j is not None else [] for j in cols]
-            else:
-                names.append((k, n))
-                columns.append([j for j in cols if j is not None])
 
         def kept(x: torch.Tensor) -> list[torch.Tensor]:
             values = self.space.values(x, cond, R, only=rest)
