@@ -230,6 +230,14 @@ def test_prepared_inputs_give_simulate_and_its_jacobian_for_any_leading_rows(flo
         assert bool(got[1][..., want[2].index(("dahl", "z0"))].abs().sum() > 0)  # the start state's derivative
     grad = {k: {name: v.clone().requires_grad_(True) for name, v in d.items()} for k, d in P.items()}
     assert torch.equal(prepared.simulate(grad).detach(), prepared.simulate(P))
+    # derivatives asked for only: the same columns to the last bit (one reaching the state, one at the output only,
+    # one through the start state alone), the others 0
+    y, dy, keys = prepared.jacobian(P)
+    for needed in ({("dahl", "Fc"), ("spring", "k"), ("dahl", "z0")}, {("spring", "k")}, set()):
+        y2, dy2, _ = prepared.jacobian(P, needed=needed)
+        asked = torch.tensor([key in needed for key in keys])
+        assert torch.equal(y2, y) and torch.equal(dy2[..., asked], dy[..., asked])
+        assert not bool(dy2[..., ~asked].any())
 
 
 def test_jacobian_refuses_what_it_does_not_cover():

@@ -156,6 +156,13 @@ def test_populations_of_any_size_simulate_as_their_rows_alone(float64):
         r, J = problem.jacobian_rows(X[:n], free)
         assert torch.equal(r, torch.cat([a[0] for a in alone_jacobians[:n]]))
         assert torch.equal(J, torch.cat([a[1] for a in alone_jacobians[:n]]))
+    # with coordinates held (the loop's tangent carries only the parameters the free ones move) the same columns
+    r, J = problem.jacobian_rows(X, free)
+    for held in (["dahl.sigma0"], ["viscous.c", "dahl.Fc.c1"], [n for n in problem.space.names if n != "dahl.sigma0"]):
+        assert set(held) <= set(problem.space.names)
+        some = torch.tensor([n not in held for n in problem.space.names])
+        r2, J2 = problem.jacobian_rows(X, some)
+        assert torch.equal(r2, r) and torch.equal(J2, J[..., some])
 
 
 def test_exact_jacobian_equals_finite_differences_with_trends_and_play(float64):

@@ -96,16 +96,34 @@ def test_compiled_path_equals_the_reference_with_networks(structure):
         assert ((gf - gr).abs().max() / gr.abs().max()).item() < 1e-8
 
 
-@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
-def test_forward_sensitivities_with_networks_equal_the_adjoint(structure):
+def _output_network():
+    """A network at the output only (no latent state) beside a Dahl element: the state tangent carries Dahl's
+    two parameters, and none of the spring's, the viscous term's or the network's weights."""
+    torch.manual_seed(4)
+    net = NeuralEffect(inputs=("x", "v"), hidden="1x6", scales={"x": 1.0, "v": 6.0, "F": 0.5}).double()
+    for p in net.net.parameters():
+        p.data.normal_(0.0, 0.6)
+    return _damper().augmented({"neural": net})
+
+
+@pytest.mark.parametrize("case", ["constitutive", "oscillator", "output network"])
+def test_forward_sensitivities_with_networks_equal_the_adjoint(case):
     """``simulate_jacobian(..., weights=True)``: the derivatives of every output sample w.r.t. every parameter
     value and every network weight in one forward pass, against autograd through the reference loop: per row,
     w · dy equals the gradient of w · y (weights: summed over the rows, which share them); every network,
-    activation, Duhem's form, a play and sub-steps in the loop; a given initial state is held fixed."""
+    activation, Duhem's form, a play and sub-steps in the loop; a given initial state is held fixed. And where
+    only some columns reach the state (a network at the output, a spring, a viscous term), the loop's state
+    tangent leaves the others out with the same derivatives."""
     from hybridhyst.simulate import simulate_jacobian
-    from hybridhyst.simulate.fast.function import weight_columns
+    from hybridhyst.simulate.fast.codegen import _state_columns
+    from hybridhyst.simulate.fast.function import compiled, weight_columns
 
-    model = _five_networks(structure)
+    model = _output_network() if case == "output network" else _five_networks(case)
+    if case == "output network":
+        eq, _ = compiled(model)
+        live, rhs_nets = _state_columns(eq)
+        assert not rhs_nets
+        assert [key for key, flag in zip(eq.param_keys, live) if flag] == [("dahl", "sigma0"), ("dahl", "Fc")]
     t, x, cond = _inputs()
     with torch.no_grad():
         P = model.evaluate(cond, 3)

@@ -150,7 +150,9 @@ class RecordsProblem:
             Xd = X.detach().to(U.dtype)
             dvalues = self._value_jacobian(Xd, idx, cond, R)
             prepared, values = self._batch(Xd, i)
-            y, dy, keys = prepared.jacobian(values)
+            # only the parameters a free coordinate moves (not a held or fixed one's) go through the loop's tangent
+            needed = {(k, n) for k, d in dvalues.items() for n, v in d.items() if bool(v.ne(0).any())}
+            y, dy, keys = prepared.jacobian(values, needed=needed)
             dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
             res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
             jac.append(_chain(dy[..., 0, :], dvdx).reshape(N, -1, len(idx)))

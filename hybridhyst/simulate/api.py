@@ -228,8 +228,10 @@ class Prepared:
         y = _outputs(model, states, U, P, controls)
         return (y, states) if return_states else y
 
-    def jacobian(self, values: dict, *, initial_state=None, weights: bool = False):
-        """``simulate_jacobian``'s result for these inputs with ``values``."""
+    def jacobian(self, values: dict, *, initial_state=None, weights: bool = False, needed=None):
+        """``simulate_jacobian``'s result for these inputs with ``values``. ``needed``: the parameters ``(effect,
+        name)`` whose derivatives are wanted (None: every one); the others' columns are 0, and the loop does not
+        carry them (identification asks for those of its free coordinates)."""
         from .fast.function import compiled, tangent_fast
 
         model, t, controls, dtype = self.model, self.t, self.controls, self.dtype
@@ -245,10 +247,13 @@ class Prepared:
         given = start is not None and _whole_state(model, start)  # held fixed; otherwise [x, v] under the effects'
         base = None if start is None or given else start.expand(B, -1)
         n = len(keys) + sum(net.n_weights for net in eq.networks)
+        asked = [needed is None or key in needed for key in keys]
+        want = torch.tensor(asked + [weights] * (n - len(keys)), dtype=torch.float64)
         ds0 = s0.new_zeros(B, s0.shape[1], n)
         # the initial state's derivatives w.r.t. the parameters of the effects with a state (``Model.initial_state``
         # reads no other): reverse mode, one pass per state component, where the start depends on them at all
-        stateful = [j for j, (k, _) in enumerate(keys) if k in model.effects and model.effects[k].state_dim]
+        stateful = [j for j, (k, _) in enumerate(keys)
+                    if asked[j] and k in model.effects and model.effects[k].state_dim]
         if stateful and s0.shape[1] and not given:
             def start_state(x: torch.Tensor) -> list[torch.Tensor]:
                 rows = {k: dict(P[k]) for k in {keys[j][0] for j in stateful}}
@@ -263,7 +268,7 @@ class Prepared:
             if jac.shape[1]:
                 ds0[..., stateful] = jac
         y, dy = tangent_fast(model, self.U, t, P, s0, ds0, method=self.sim.method or "rk4",
-                             substeps=self.sim.substeps, controls=controls)
+                             substeps=self.sim.substeps, controls=controls, want=want)
         return y, (dy if weights else dy[..., : len(keys)]), keys
 
 

@@ -149,7 +149,7 @@ def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_o
     """The loops index raw memory: every array float64, C-contiguous and of the shape they assume."""
     shapes = {"U": (B, T, NI), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
               "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, NI), "gs0": (B, S), "ds0": (B, S, NT),
-              "dy": (B, T, n_out, NT)}
+              "want": (NT,), "dy": (B, T, n_out, NT)}
     for key, a in arrays.items():
         if a.dtype != np.float64 or not a.flags.c_contiguous or a.shape != shapes.get(key, a.shape):
             raise ValueError(f"compiled {name}: {key} must be a C-contiguous float64 array of shape "
@@ -168,7 +168,7 @@ class Compiled:
         lib = ctypes.CDLL(str(path))
         L, V = ctypes.c_long, ctypes.c_void_p
         self._fns = {}
-        for name, n_before, n_after in (("forward", 4, 2), ("backward", 6, 3), ("tangent", 5, 2)):
+        for name, n_before, n_after in (("forward", 4, 2), ("backward", 6, 3), ("tangent", 6, 2)):
             fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
             fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
             fn.restype = None
@@ -217,8 +217,8 @@ class Compiled:
         self._run("backward", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "states": states, "gy": gy, "gS": gS},
                   c.shape[0], [c, A, bw], sub, {"gth": gth, "gU": gU, "gs0": gs0}, th.shape[1])
 
-    def tangent(self, U, h, th, s0, ds0, c, A, bw, sub, y, dy):
-        """Outputs y (B,T,O) and their derivatives dy (B,T,O,NT) w.r.t. every column of th (the parameters, then
-        the networks' weights), given ds0 (B,S,NT)."""
-        self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0}, c.shape[0],
-                  [c, A, bw], sub, {"y": y, "dy": dy}, th.shape[1])
+    def tangent(self, U, h, th, s0, ds0, want, c, A, bw, sub, y, dy):
+        """Outputs y (B,T,O) and their derivatives dy (B,T,O,NT) w.r.t. the columns of th (the parameters, then
+        the networks' weights) asked for (want (NT,), nonzero; the others are 0), given ds0 (B,S,NT)."""
+        self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0, "want": want},
+                  c.shape[0], [c, A, bw], sub, {"y": y, "dy": dy}, th.shape[1])

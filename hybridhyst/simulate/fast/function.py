@@ -157,12 +157,14 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
 
 
 def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
-                 method: str = "rk4", substeps: int = 1, controls: tuple[str, ...] = ()):
+                 method: str = "rk4", substeps: int = 1, controls: tuple[str, ...] = (),
+                 want: torch.Tensor | None = None):
     """Outputs ``(batch, time, output_dim)`` and their derivatives ``(batch, time, output_dim, n)`` w.r.t. the
     n columns of the compiled loop's ``th``: the parameter values of the equations in the order of
     ``compiled(model)[0].param_keys``, then every network's weights (``weight_columns``) -- forward sensitivities
     of the compiled loop, one pass for all n where finite differences take n simulations. ``dstate0 (batch,
-    state_dim, n)``: the initial state's derivatives. Not differentiable itself."""
+    state_dim, n)``: the initial state's derivatives. ``want (n,)`` booleans: the columns asked for (None: all);
+    the loop carries no other through the states, and their derivatives are 0. Not differentiable itself."""
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
     eq, module = compiled(model, controls)
@@ -172,7 +174,8 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     h = (t[..., 1:] - t[..., :-1]).expand(B, -1)
     y = np.empty((B, T, model.output_dim))
     dy = np.empty((B, T, model.output_dim, th.shape[1]))
-    module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), c, A, bw, int(substeps), y, dy)
+    asked = np.ones(th.shape[1]) if want is None else _numpy(want)
+    module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), asked, c, A, bw, int(substeps), y, dy)
     return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
             torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
 

@@ -100,38 +100,66 @@ static inline void jac_full(jac_kernel jac, vjp_kernel vjp, int n, const double 
         }
 }
 
-/* One row of a chain rule: row = direct + sum_i jac[i] * tangent[i] (tangent (S, nt)). */
-static inline void chain_row(double *row, const double *direct, const double *jac, const double *tangent, int nt) {
-    for (int p = 0; p < nt; p++) row[p] = direct[p];
+/* The columns of th (of nt) a row's state tangent carries, into cols; their number. Of the columns asked for
+   (want[p] != 0): a parameter that reaches the state (LIVE), every weight where the right-hand side reads a
+   network, and any column the start state's derivatives ds0 (S, nt) hold. Any other column's state tangent is
+   zero (its derivative reaches the outputs directly) or not asked for, and the loop leaves it out. */
+static int state_columns(int nt, const double *ds0, const double *want, int *cols) {
+    int n = 0;
+    for (int p = 0; p < nt; p++) {
+        if (want[p] == 0.0) continue;
+        int live = p < P ? LIVE[p] : RHS_NETS;
+        for (int i = 0; i < S && !live; i++) live = ds0[i * nt + p] != 0.0;
+        if (live) cols[n++] = p;
+    }
+    return n;
+}
+
+/* One row of a chain rule over the state's columns: row[c] = direct[cols[c]] + sum_i jac[i] * tangent[i][c]
+   (tangent (S, nl)). */
+static inline void chain_row(double *row, const double *direct, const int *cols, const double *jac,
+                             const double *tangent, int nl) {
+    for (int c = 0; c < nl; c++) row[c] = direct[cols[c]];
     for (int i = 0; i < S; i++) {
         double ji = jac[i];
         if (ji != 0.0)
-            for (int p = 0; p < nt; p++) row[p] += ji * tangent[i * nt + p];
+            for (int c = 0; c < nl; c++) row[c] += ji * tangent[i * nl + c];
     }
 }
 
-/* Outputs y and their derivatives dy (T, O, nt) w.r.t. every column of th -- the P parameters, then the networks'
-   weights (nt = P without networks) -- as forward sensitivities: the exact derivative of the same discrete map as
-   forward_row, given the initial state's ds0 (S, nt). */
+/* Outputs y and their derivatives dy (T, O, nt) w.r.t. the columns of th asked for (want (nt), nonzero: the P
+   parameters, then the networks' weights; nt = P without networks; a column not asked for is 0) as forward
+   sensitivities: the exact derivative of the same discrete map as forward_row, given the initial state's ds0
+   (S, nt). The state's tangent carries only the nl columns asked for that reach it (state_columns); an output's
+   derivative is its direct one plus the state's share in those. */
 static void tangent_row(int T, int nt, const double *U, const double *h, const double *th, const double *s0,
-                        const double *ds0, int nst, const double *c, const double *A, const double *bw, int sub,
+                        const double *ds0, const double *want, int nst, const double *c, const double *A, const double *bw, int sub,
                         double *y, double *dy) {
     const int s1 = DIM(S), n1 = DIM(nt);
     double K[nst * s1], Y[s1], FS[s1 * s1], g[DIM(O)], gs[DIM(O) * s1], buf[NB];
     double st[s1], lo[s1], hi[s1], fl[s1], dlo[DIM(S * P)], dhi[DIM(S * P)], in[NI];
-    double *dK = malloc(sizeof(double) * nst * s1 * n1), *dY = malloc(sizeof(double) * s1 * n1);
-    double *sig = malloc(sizeof(double) * s1 * n1); /* d(state)/d(th) (S, nt) */
+    int *cols = malloc(sizeof(int) * n1);
+    const int nl = state_columns(nt, ds0, want, cols), l1 = DIM(nl);
+    double *dK = malloc(sizeof(double) * nst * s1 * l1), *dY = malloc(sizeof(double) * s1 * l1);
+    double *sig = malloc(sizeof(double) * s1 * l1); /* d(state)/d(th[cols]) (S, nl) */
     double *FT = malloc(sizeof(double) * s1 * n1), *gt = malloc(sizeof(double) * DIM(O) * n1);
     memset(K, 0, sizeof K);
-    memset(dK, 0, sizeof(double) * nst * s1 * n1);
+    memset(dK, 0, sizeof(double) * nst * s1 * l1);
     for (int i = 0; i < S; i++) st[i] = s0[i];
-    for (int i = 0; i < S * nt; i++) sig[i] = ds0[i];
+    for (int i = 0; i < S; i++)
+        for (int q = 0; q < nl; q++) sig[i * nl + q] = ds0[i * nt + cols[q]];
     if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = 0; k < T; k++) {
         jac_full(out_jac, out_net_vjp, O, st, U + k * NI, th, nt, g, gs, gt, buf);
         for (int o = 0; o < O; o++) {
+            double *row = dy + (k * O + o) * nt;
             y[k * O + o] = g[o];
-            chain_row(dy + (k * O + o) * nt, gt + o * nt, gs + o * S, sig, nt);
+            for (int p = 0; p < nt; p++) row[p] = want[p] != 0.0 ? gt[o * nt + p] : 0.0;
+            for (int i = 0; i < S; i++) {
+                double ji = gs[o * S + i];
+                if (ji != 0.0)
+                    for (int q = 0; q < nl; q++) row[cols[q]] += ji * sig[i * nl + q];
+            }
         }
         if (k == T - 1) break;
         double hk = h[k] / sub;
@@ -139,40 +167,44 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
             for (int j = 0; j < nst; j++) { /* stage j: Y_j = s + hk sum_l A_jl K_l, K_j = f(Y_j); so the tangents */
                 stage_state(st, K, j, hk, A, nst, Y);
                 for (int i = 0; i < S; i++) {
-                    double *dyi = dY + i * nt;
-                    for (int p = 0; p < nt; p++) dyi[p] = sig[i * nt + p];
+                    double *dyi = dY + i * nl;
+                    for (int q = 0; q < nl; q++) dyi[q] = sig[i * nl + q];
                     for (int l = 0; l < j; l++) {
                         double a = hk * A[j * nst + l];
                         if (a != 0.0) {
-                            const double *dkl = dK + (l * s1 + i) * n1;
-                            for (int p = 0; p < nt; p++) dyi[p] += a * dkl[p];
+                            const double *dkl = dK + (l * s1 + i) * l1;
+                            for (int q = 0; q < nl; q++) dyi[q] += a * dkl[q];
                         }
                     }
                 }
                 stage_input(U, k, (m + c[j]) / sub, in);
                 jac_full(rhs_jac, rhs_net_vjp, S, Y, in, th, nt, K + j * s1, FS, FT, buf);
-                for (int i = 0; i < S; i++) chain_row(dK + (j * s1 + i) * n1, FT + i * nt, FS + i * S, dY, nt);
+                for (int i = 0; i < S; i++)
+                    chain_row(dK + (j * s1 + i) * l1, FT + i * nt, cols, FS + i * S, dY, nl);
             }
             for (int i = 0; i < S; i++) {
                 double acc = 0.0;
                 for (int j = 0; j < nst; j++) acc += bw[j] * K[j * s1 + i];
                 st[i] += hk * acc;
-                for (int p = 0; p < nt; p++) dY[p] = 0.0; /* (dY's row 0 as scratch: sum_j bw_j dK_j) */
+                for (int q = 0; q < nl; q++) dY[q] = 0.0; /* (dY's row 0 as scratch: sum_j bw_j dK_j) */
                 for (int j = 0; j < nst; j++) {
-                    const double *dkj = dK + (j * s1 + i) * n1;
-                    for (int p = 0; p < nt; p++) dY[p] += bw[j] * dkj[p];
+                    const double *dkj = dK + (j * s1 + i) * l1;
+                    for (int q = 0; q < nl; q++) dY[q] += bw[j] * dkj[q];
                 }
-                for (int p = 0; p < nt; p++) sig[i * nt + p] += hk * dY[p];
+                for (int q = 0; q < nl; q++) sig[i * nl + q] += hk * dY[q];
             }
             if (HAS_BOUNDS) { /* a state held at a bound follows the bound (which no weight moves) */
                 project(st, lo, hi, fl);
                 for (int i = 0; i < S; i++)
                     if (fl[i] != 0.0)
-                        for (int p = 0; p < nt; p++)
-                            sig[i * nt + p] = p < P ? (fl[i] > 0 ? dhi[i * P + p] : dlo[i * P + p]) : 0.0;
+                        for (int q = 0; q < nl; q++) {
+                            int p = cols[q];
+                            sig[i * nl + q] = p < P ? (fl[i] > 0 ? dhi[i * P + p] : dlo[i * P + p]) : 0.0;
+                        }
             }
         }
     }
+    free(cols);
     free(dK);
     free(dY);
     free(sig);
@@ -306,9 +338,9 @@ void hh_backward(long b0, long b1, long T, long NT, const double *U, const doubl
 }
 
 void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
-                const double *s0, const double *ds0, long nst, const double *c, const double *A, const double *bw,
-                long sub, double *y, double *dy) {
+                const double *s0, const double *ds0, const double *want, long nst, const double *c, const double *A,
+                const double *bw, long sub, double *y, double *dy) {
     for (long b = b0; b < b1; b++)
-        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * NT, nst, c, A, bw,
-                    sub, y + b * T * O, dy + b * T * O * NT);
+        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * NT, want, nst, c,
+                    A, bw, sub, y + b * T * O, dy + b * T * O * NT);
 }
