@@ -388,6 +388,54 @@ def test_a_model_is_built_once_and_found_again_in_the_disk_cache(tmp_path, monke
     assert torch.equal(first, again) and libs[0].stat().st_mtime_ns == built
 
 
+def test_values_hoisted_out_of_the_kernels_leave_every_number_as_it_was(tmp_path, monkeypatch, float64):
+    """Powers and functions of the parameters alone are evaluated once per row (``codegen._Printer``'s hoisting, the
+    loops' ``with_hoisted``) instead of at every stage: values, adjoint gradients and forward sensitivities are the
+    same to the last bit as from kernels that evaluate them in place (LuGre's 1/vs² and vs³, Bouc–Wen's exponent
+    and levels, a play's bound in an oscillator: the kernels of every loop)."""
+    from hybridhyst.simulate.fast import build, codegen, function
+
+    model = DrivenOscillator({"backlash": EFFECTS["backlash"](r=0.05), "spring": EFFECTS["linear_stiffness"](k=2.0),
+                              "lugre": EFFECTS["lugre"](**EFFECT_VALUES["lugre"]),
+                              "bouc_wen": EFFECTS["bouc_wen"](**EFFECT_VALUES["bouc_wen"])}, mass=0.5).double()
+    u, t = _every_effect_input()
+    u = torch.stack([u, 0.7 * u])
+    with torch.no_grad():
+        P = model.evaluate(None, 2)
+
+    def numbers():
+        monkeypatch.setattr(build, "_MODULES", {})
+        monkeypatch.setattr(function, "_COMPILED", {})
+        values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}
+        y = simulate(model, u, t=t, values=values, substeps=2, backend="fast")
+        leaves = [v for d in values.values() for v in d.values()]
+        grads = torch.autograd.grad((y * torch.cos(torch.arange(y.numel()).reshape(y.shape))).sum(), leaves,
+                                    allow_unused=True)
+        return [y.detach(), *[g for g in grads if g is not None], *simulate_jacobian(model, u, t, values=P,
+                                                                                      substeps=2)[:2]]
+
+    monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path / "hoisted"))
+    hoisted = numbers()
+
+    def rhs_source() -> str:
+        source = codegen.generate_source(function.compiled(model)[0])
+        return source.split("static inline void rhs(")[1].split("}")[0]
+
+    assert "pow(th" not in rhs_source()  # read, not evaluated
+
+    class InPlace(codegen._Printer):
+        def __init__(self, params=(), first=0):
+            super().__init__()
+
+    monkeypatch.setattr(codegen, "_Printer", InPlace)
+    monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path / "in_place"))
+    in_place = numbers()
+    assert "pow(th" in rhs_source()
+    assert len(hoisted) == len(in_place) > 3
+    for a, b in zip(hoisted, in_place):
+        assert torch.equal(a, b)
+
+
 def test_rows_spread_over_threads_give_the_same_numbers_as_one_thread(monkeypatch, float64):
     from hybridhyst.simulate.fast import build
 

@@ -24,6 +24,15 @@ static inline void stage_input(const double *U, int k, double fr, double *in) {
 
 static const double ZERO_IN[NI] = {0}; /* the inputs where the state bounds are evaluated (they read none) */
 
+/* Row b's th (nt columns) followed by the values the kernels read instead of evaluating them at every stage (powers
+   and functions of the parameters alone: ``hoisted``), in a copy the caller frees. */
+static double *with_hoisted(const double *th, long nt) {
+    double *thx = malloc(sizeof(double) * DIM((nt > NTH ? nt : NTH) + NH));
+    memcpy(thx, th, sizeof(double) * nt);
+    hoisted(thx);
+    return thx;
+}
+
 /* Advance st in place by sub-step m of interval k. */
 static inline void substep(int k, int m, double *st, double *K, double *Y, double hk, const double *U,
                            const double *th, int nst, const double *c, const double *A, const double *bw, int sub,
@@ -133,8 +142,8 @@ static inline void chain_row(double *row, const double *direct, const int *cols,
    (S, nt). The state's tangent carries only the nl columns asked for that reach it (state_columns); an output's
    derivative is its direct one plus the state's share in those. */
 static void tangent_row(int T, int nt, const double *U, const double *h, const double *th, const double *s0,
-                        const double *ds0, const double *want, int nst, const double *c, const double *A, const double *bw, int sub,
-                        double *y, double *dy) {
+                        const double *ds0, const double *want, int nst, const double *c, const double *A,
+                        const double *bw, int sub, double *y, double *dy) {
     const int s1 = DIM(S), n1 = DIM(nt);
     double K[nst * s1], Y[s1], FS[s1 * s1], g[DIM(O)], gs[DIM(O) * s1], buf[NB];
     double st[s1], lo[s1], hi[s1], fl[s1], dlo[DIM(S * P)], dhi[DIM(S * P)], in[NI];
@@ -324,23 +333,32 @@ static void backward_row(int T, int NT, const double *U, const double *h, const 
 void hh_forward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                 const double *s0, long nst, const double *c, const double *A, const double *bw, long sub,
                 double *states, double *y) {
-    for (long b = b0; b < b1; b++)
-        forward_row(T, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, nst, c, A, bw, sub,
-                    states + b * T * S, y + b * T * O);
+    for (long b = b0; b < b1; b++) {
+        double *thx = with_hoisted(th + b * NT, NT);
+        forward_row(T, U + b * T * NI, h + b * (T - 1), thx, s0 + b * S, nst, c, A, bw, sub, states + b * T * S,
+                    y + b * T * O);
+        free(thx);
+    }
 }
 
 void hh_backward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                  const double *states, const double *gy, const double *gS, long nst, const double *c,
                  const double *A, const double *bw, long sub, double *gth, double *gU, double *gs0) {
-    for (long b = b0; b < b1; b++)
-        backward_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, states + b * T * S, gy + b * T * O,
+    for (long b = b0; b < b1; b++) {
+        double *thx = with_hoisted(th + b * NT, NT);
+        backward_row(T, NT, U + b * T * NI, h + b * (T - 1), thx, states + b * T * S, gy + b * T * O,
                      gS + b * T * S, nst, c, A, bw, sub, gth + b * NT, gU + b * T * NI, gs0 + b * S);
+        free(thx);
+    }
 }
 
 void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                 const double *s0, const double *ds0, const double *want, long nst, const double *c, const double *A,
                 const double *bw, long sub, double *y, double *dy) {
-    for (long b = b0; b < b1; b++)
-        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), th + b * NT, s0 + b * S, ds0 + b * S * NT, want, nst, c,
-                    A, bw, sub, y + b * T * O, dy + b * T * O * NT);
+    for (long b = b0; b < b1; b++) {
+        double *thx = with_hoisted(th + b * NT, NT);
+        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), thx, s0 + b * S, ds0 + b * S * NT, want, nst, c, A, bw,
+                    sub, y + b * T * O, dy + b * T * O * NT);
+        free(thx);
+    }
 }
