@@ -189,6 +189,26 @@ def test_jacobian_equals_the_adjoint_on_the_driven_oscillator(float64):
     _assert_jacobian(model, torch.stack([u, 0.7 * u]), t)
 
 
+def test_jacobian_of_a_parameter_that_reaches_the_state_only_through_its_bound(float64):
+    """A play's half-width r enters the equations only as the bound of its state (the right-hand side is u̇): the
+    forward sensitivities must carry its column through the state all the same (``codegen._state_columns``), asked
+    for alone or with the others."""
+    model = Constitutive({"backlash": EFFECTS["backlash"](r=0.2), "spring": EFFECTS["linear_stiffness"](k=2.0)})
+    u, t = _every_effect_input()
+    _assert_jacobian(model.double(), torch.stack([u, 0.8 * u]), t)
+    with torch.no_grad():
+        P = model.evaluate(None, 2)
+    full = simulate_jacobian(model, torch.stack([u, 0.8 * u]), t, values=P, substeps=2)
+    from hybridhyst.simulate import Prepared, SimulationSettings
+
+    prepared = Prepared(model, torch.stack([u, 0.8 * u]), t, settings=SimulationSettings(backend="fast", substeps=2))
+    alone = prepared.jacobian(P, needed={("backlash", "r")})
+    j = full[2].index(("backlash", "r"))
+    assert bool(full[1][..., j].abs().max() > 0.1) and torch.equal(alone[1][..., j], full[1][..., j])
+    with pytest.raises(ValueError, match="no parameter"):
+        prepared.jacobian(P, needed={("backlash", "gap")})
+
+
 def _assert_jacobian(model, u, t):
     with torch.no_grad():
         P = model.evaluate(None, 2)

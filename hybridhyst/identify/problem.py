@@ -174,7 +174,8 @@ def _chain(dy: torch.Tensor, dvdx: torch.Tensor) -> torch.Tensor:
     same 0/1 selection in every row: constants only) and every derivative is finite, the product is those columns
     of ``dy``, taken as they are (the same values, up to the sign of a zero; half the time of the batched product).
     A non-finite derivative takes the product, which spreads it as NaN over its sample's other columns
-    (inf · 0), as the fits' and the Fisher analysis's checks expect."""
+    (inf · 0), as the fits' and the Fisher analysis's checks expect; the columns of parameters no free coordinate
+    moves are not computed (``Prepared.jacobian(needed=)``: exactly 0), so only a needed one can spread."""
     first = dvdx[0]
     if (bool(((first == 0) | (first == 1)).all()) and bool((first.sum(dim=0) == 1).all())
             and torch.equal(dvdx, first.expand_as(dvdx)) and bool(torch.isfinite(dy.sum()))):
