@@ -247,8 +247,9 @@ class Prepared:
         given = start is not None and _whole_state(model, start)  # held fixed; otherwise [x, v] under the effects'
         base = None if start is None or given else start.expand(B, -1)
         n = len(keys) + sum(net.n_weights for net in eq.networks)
-        if needed is not None and set(needed) - set(keys):
-            raise ValueError(f"jacobian(needed=...): no parameter {sorted(set(needed) - set(keys))} in this model; "
+        unknown = set() if needed is None else set(needed) - set(keys)
+        if unknown:
+            raise ValueError(f"jacobian(needed=...): no parameter {sorted(unknown)} in this model; "
                              f"its parameters are {keys}")
         asked = [needed is None or key in needed for key in keys]
         want = torch.tensor(asked + [weights] * (n - len(keys)), dtype=torch.float64)
