@@ -1,10 +1,11 @@
 """How long a model never run before waits for its compiled loops, and what that costs the main job.
 
 1. Per model, in an empty cache: the seconds from ``simulate(..., backend="fast")`` being called on a model the
-   machine has never built to its first values, and to its first gradient (equations, C source, the compiler,
-   loading, the simulation itself), for every named composition, the two models holding every library effect
-   (the largest loops the library builds), and an in-the-loop hybrid (a 2×32 network inside the Bouc–Wen
-   benchmark oscillator). Then all of them built side by side (``prebuild_models``) against one after another.
+   machine has never built to its first values, then to its first forward sensitivities and its first gradient
+   (equations, C source, the compiler, loading, the simulation itself; each loop is built when first needed), for
+   every named composition, the two models holding every library effect (the largest loops the library builds),
+   and an in-the-loop hybrid (a 2×32 network inside the Bouc–Wen benchmark oscillator). Then the loops a fit runs
+   of all of them built side by side (``prebuild_models``) against one model after another.
 2. ``--main-job``: the main job (``hybridhyst-discover`` on the bundled data) on an empty cache, then again warm,
    back to back, and their ratio.
 3. ``--opt-levels``: the main job built at -O2 and at -O3 (``HYBRIDHYST_OPT``), side by side: for each level an
@@ -78,24 +79,32 @@ def _inputs():
 
 
 def first_call(make) -> dict:
-    """Seconds to the first values and the first gradient of a model never built, in an empty cache."""
-    from hybridhyst.simulate import simulate
+    """Seconds to the first values, then the first forward sensitivities (a least-squares Jacobian, where they
+    cover the model) and the first gradient of a model never built, in an empty cache (each loop is built when a
+    call first needs it)."""
+    from hybridhyst.simulate import jacobian_covers, simulate, simulate_jacobian
     from hybridhyst.simulate.fast.equations import build_equations
 
     model = make().double()
     u, t = _inputs()
     cond = {"pressure_mpa": torch.tensor([0.05])}
+    with torch.no_grad():
+        values = model.evaluate(cond, 1)
     with tempfile.TemporaryDirectory() as cache:
         _fresh(cache)
         t0 = time.perf_counter()
         y = simulate(model, u, t=t, conditions=cond, backend="fast")
-        values = time.perf_counter() - t0
+        first = time.perf_counter() - t0
+        jacobian = None
+        if jacobian_covers(model):
+            simulate_jacobian(model, u, t, values=values, conditions=cond)
+            jacobian = time.perf_counter() - t0
         params = [p for p in model.parameters() if p.requires_grad]
         torch.autograd.grad(y.square().sum(), params, allow_unused=True)
         gradient = time.perf_counter() - t0
     eq = build_equations(model)
-    return {"values_s": values, "gradient_s": gradient, "states": len(eq.state), "parameters": len(eq.params),
-            "networks": len(eq.networks)}
+    return {"values_s": first, "jacobian_s": jacobian, "gradient_s": gradient, "states": len(eq.state),
+            "parameters": len(eq.params), "networks": len(eq.networks)}
 
 
 def shared_sums(repeats: int = 2) -> dict:
@@ -130,16 +139,24 @@ def shared_sums(repeats: int = 2) -> dict:
 
 
 def side_by_side(makers: dict) -> dict:
-    """All models built at once (``prebuild_models``) against the sum of their builds one after another."""
+    """All models' loops that a fit runs (values and forward sensitivities) built at once (``prebuild_models``)
+    against the same built one model after another, each in an empty cache."""
     from hybridhyst.simulate.fast import prebuild_models
 
     built = [make().double() for make in makers.values()]
+    out = {"models": len(built)}
     with tempfile.TemporaryDirectory() as cache:
         _fresh(cache)
         t0 = time.perf_counter()
         prebuild_models(built)
-        together = time.perf_counter() - t0
-    return {"models": len(built), "together_s": together}
+        out["together_s"] = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as cache:
+        _fresh(cache)
+        t0 = time.perf_counter()
+        for model in built:
+            prebuild_models([model])
+        out["one_after_another_s"] = time.perf_counter() - t0
+    return out
 
 
 def _main_job(env: dict, run_dir: str) -> float:
@@ -198,7 +215,6 @@ def run(quick: bool, main_job: bool = False, opt_levels: bool = False, workers: 
 
     res = {**machine_brief(), "models": {name: first_call(make) for name, make in makers.items()}}
     res["side_by_side"] = side_by_side(makers)
-    res["side_by_side"]["one_after_another_s"] = sum(m["values_s"] for m in res["models"].values())
     if not quick:
         res["shared_sums"] = shared_sums()
     if old is None:
@@ -219,13 +235,19 @@ def markdown(res: dict) -> str:
 
     lines = [f"A model never built before, in an empty cache ({cores(res)}, load average at the start "
              f"{res['load_average_at_start']}): seconds from the first `simulate(..., backend=\"fast\")` call to its "
-             "values (equations, C source, compiler, load, a 200-step simulation) and to its first gradient.", "",
-             "| model | states | parameters | first values [s] | first gradient [s] |", "|---|---|---|---|---|"]
+             "values (equations, C source, compiler, load, a 200-step simulation), then to its first forward "
+             "sensitivities (`simulate_jacobian`, what least squares needs; — where they do not cover the model) and "
+             "to its first gradient (each loop is built when a call first needs it).", "",
+             "| model | states | parameters | first values [s] | + Jacobian [s] | + gradient [s] |",
+             "|---|---|---|---|---|---|"]
     for name, m in res["models"].items():
-        lines.append(f"| {name} | {m['states']} | {m['parameters']} | {m['values_s']:.2f} | {m['gradient_s']:.2f} |")
+        jac = "—" if m.get("jacobian_s") is None else f"{m['jacobian_s']:.2f}"
+        lines.append(f"| {name} | {m['states']} | {m['parameters']} | {m['values_s']:.2f} | {jac} | "
+                     f"{m['gradient_s']:.2f} |")
     s = res["side_by_side"]
-    lines += ["", f"All {s['models']} built side by side (`prebuild_models`, one compiler process per core): "
-                  f"{s['together_s']:.1f} s, against {s['one_after_another_s']:.1f} s one after another."]
+    lines += ["", f"All {s['models']} with the loops a fit runs (values and forward sensitivities) built side by "
+                  f"side (`prebuild_models`, one compiler process per core): {s['together_s']:.1f} s, against "
+                  f"{s['one_after_another_s']:.1f} s one after another."]
     for name, g in res.get("shared_sums", {}).items():
         ratio = g["sympy_s"] / g["shared_s"]
         lines += ["", f"{name}: its C source generated in {g['shared_s']:.2f} s with equal sums sharing one "

@@ -338,10 +338,10 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
 
     inside, source = threading.Event(), codegen._source
 
-    def slow(eq):
+    def slow(eq, kind):
         inside.set()
         time.sleep(0.3)
-        return source(eq)
+        return source(eq, kind)
 
     monkeypatch.setattr(codegen, "_source", slow)
     with ThreadPoolExecutor(2) as pool:
@@ -363,7 +363,7 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
             unevaluated = shared(terms, True, False, False)
         assert shared(terms, True, False, False) == original(terms, True, False, False) != unevaluated
 
-    def boom(eq):
+    def boom(eq, kind):
         raise RuntimeError("generation failed")
 
     monkeypatch.setattr(codegen, "_source", boom)
@@ -378,6 +378,29 @@ def test_no_c_compiler_is_one_clear_error(monkeypatch):
     monkeypatch.setattr(build.shutil, "which", lambda name: None)
     with pytest.raises(RuntimeError, match="C compiler.*backend='reference'"):
         build.compiler()
+
+
+def test_a_compiler_that_does_not_know_a_flag_builds_without_it(tmp_path, monkeypatch):
+    """The loops are built without inlining a function called once whatever its size (``build._ONCE``), where the
+    compiler takes the flag; one that rejects it, or warns about it, builds without it."""
+    import subprocess
+
+    from hybridhyst.simulate.fast import build
+
+    fussy = tmp_path / "fussy-cc"
+    fussy.write_text('#!/bin/sh\nfor a in "$@"; do [ "$a" = "-fno-inline-functions-called-once" ] && '
+                     'echo "unknown argument: $a" >&2; done\nexec cc "$@"\n')
+    fussy.chmod(0o755)
+    build._flags.cache_clear()
+    try:
+        version = subprocess.run([build.compiler(), "--version"], capture_output=True, text=True).stdout
+        if "Free Software Foundation" in version:  # gcc takes it
+            assert build._ONCE in build._flags()
+        build._flags.cache_clear()
+        monkeypatch.setenv("CC", str(fussy))
+        assert build._ONCE not in build._flags() and build.OPT in build._flags()
+    finally:
+        build._flags.cache_clear()
 
 
 def test_a_failing_build_names_the_command_and_the_compiler_message(tmp_path, monkeypatch):
@@ -406,6 +429,42 @@ def test_a_model_is_built_once_and_found_again_in_the_disk_cache(tmp_path, monke
     function._COMPILED.clear()
     again = simulate(model, u, t=t, backend="fast")
     assert torch.equal(first, again) and libs[0].stat().st_mtime_ns == built
+
+
+def test_each_loop_is_built_when_a_call_first_needs_it(tmp_path, monkeypatch, float64):
+    """Values build the forward loop alone (their source has no Jacobian kernel); a gradient adds the adjoint, a
+    Jacobian the forward sensitivities, both from one generated derivatives source; a new process finds all three
+    in the disk cache without generating anything."""
+    from hybridhyst.simulate.fast import build, codegen, function
+
+    monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path))
+    monkeypatch.setattr(build, "_MODULES", {})
+    monkeypatch.setattr(function, "_COMPILED", {})
+    generated = []
+    monkeypatch.setattr(build, "generate_source", lambda eq, kind: generated.append(kind) or
+                        codegen.generate_source(eq, kind))
+    model = Constitutive({"viscous": EFFECTS["viscous"](c=0.3), "dahl": EFFECTS["dahl"](**EFFECT_VALUES["dahl"])})
+    u, t = _every_effect_input()
+    y = simulate(model, u[None], t=t, backend="fast")
+    assert generated == ["values"] and len(list((tmp_path / "fast").glob("hh_*.so"))) == 1
+    (module,) = build._MODULES.values()
+    assert set(module._fns) == {"forward"}
+    params = [p for p in model.parameters() if p.requires_grad]
+    torch.autograd.grad(simulate(model, u[None], t=t, backend="fast").square().sum(), params)
+    with torch.no_grad():
+        values = model.evaluate(None, 1)
+    simulate_jacobian(model, u[None], t, values=values)
+    assert generated == ["values", "derivatives"] and set(module._fns) == {"forward", "backward", "tangent"}
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 3 and not module._sources  # the source let go
+    with pytest.raises(ValueError, match="unknown source"):
+        codegen.generate_source(module.eq, "everything")
+
+    build._MODULES.clear()  # a new process
+    function._COMPILED.clear()
+    again = simulate(model, u[None], t=t, backend="fast")
+    torch.autograd.grad(simulate(model, u[None], t=t, backend="fast").square().sum(), params)
+    simulate_jacobian(model, u[None], t, values=values)
+    assert torch.equal(y, again) and generated == ["values", "derivatives"]
 
 
 def test_values_hoisted_out_of_the_kernels_leave_every_number_as_it_was(tmp_path, monkeypatch, float64):
@@ -483,8 +542,10 @@ def test_prebuild_builds_several_models_side_by_side(tmp_path, monkeypatch, floa
     models = [Constitutive({"viscous": EFFECTS["viscous"](c=0.3), name: EFFECTS[name](**EFFECT_VALUES[name])})
               for name in ("dahl", "coulomb", "stribeck")]
     prebuild_models(models)
-    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 3
+    # the loops a candidate's fit runs: the values and the forward sensitivities (no adjoint)
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 6
     assert len(build._MODULES) == 3
+    assert all(set(m._fns) == {"forward", "tangent"} for m in build._MODULES.values())
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here (the GPU machine runs it)")

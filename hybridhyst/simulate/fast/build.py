@@ -1,15 +1,19 @@
 """Build a model's generated C (``codegen``) with the system C compiler and load it: the compiled loops.
 
-The file is built with the system C compiler (``cc``, or ``$CC``) into a shared library — well under two
-seconds for a model of the library's effects, where numba took 10–45 s (``experiments/performance``) — and
-loaded through ctypes, which releases the GIL: the rows of a batch run on several threads. Libraries are
-cached on disk (``$HYBRIDHYST_CACHE`` or ``~/.cache/hybridhyst``) keyed by the hash of their source and the
-compiler flags, found again from the equations' hash without generating the source.
+Each loop a model runs — ``forward`` (values), ``tangent`` (forward sensitivities), ``backward`` (the adjoint) — is
+a shared library of its own, generated and built with the system C compiler (``cc``, or ``$CC``) when a call first
+needs it (``PARTS``): a model that is only simulated never waits for its Jacobians, and a discovery step's candidates
+(simulated and fitted by Levenberg–Marquardt) never build an adjoint. Well under two seconds for a model of the
+library's effects, where numba took 10–45 s (``experiments/performance``). Libraries are loaded through ctypes, which
+releases the GIL: the rows of a batch run on several threads. They are cached on disk (``$HYBRIDHYST_CACHE`` or
+``~/.cache/hybridhyst``) keyed by the hash of their source and the compiler flags, found again from the equations'
+hash without generating the source.
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import shutil
@@ -45,7 +49,20 @@ _LOCK = threading.Lock()
 # model's build about 0.1-0.2 s slower, the same numbers (no fast-math, no FMA contraction on the baseline x86-64
 # target): scripts/bench_build.py --opt-levels
 OPT = os.environ.get("HYBRIDHYST_OPT", "-O3")
-_FLAGS = [OPT, "-fPIC", "-shared", "-std=gnu99", "-fno-math-errno"]
+# A library holds one loop (PARTS), the only caller of its Jacobian kernels: GCC inlines a static function called once
+# whatever its size, and the adjoint of the model of every effect took 3.8 s to build instead of 1.5 s with the kernels
+# called as they are where the library held every loop (the same numbers: inlining changes no arithmetic). Where the
+# compiler does not know the flag it is left out.
+_ONCE = "-fno-inline-functions-called-once"
+
+
+@functools.cache
+def _flags() -> tuple[str, ...]:
+    """The compiler flags of every library (the level ``OPT``, position-independent, no errno from libm)."""
+    flags = (OPT, "-fPIC", "-shared", "-std=gnu99", "-fno-math-errno")
+    probe = subprocess.run([compiler(), _ONCE, "-x", "c", "-fsyntax-only", "-"], input="", capture_output=True,
+                           text=True)
+    return flags + (_ONCE,) if probe.returncode == 0 and not probe.stderr.strip() else flags
 
 
 def compiler() -> str:
@@ -63,16 +80,17 @@ def _write(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _build(src: str, digest: str) -> Path:
-    """The shared library of ``src`` in the cache, built now if it is not there (written under a temporary name
-    and renamed, so processes building the same model at once never load half a file)."""
+def _build(src: str, digest: str, flags: tuple[str, ...] = ()) -> Path:
+    """The shared library of ``src`` (compiled with the extra ``flags``) in the cache, built now if it is not there
+    (written under a temporary name and renamed, so processes building the same model at once never load half a
+    file)."""
     lib = _cache_dir() / f"hh_{digest}.so"
     if lib.exists():
         return lib
     c_file = _cache_dir() / f"hh_{digest}.c"
     _write(c_file, src)
     tmp = lib.with_suffix(f".{os.getpid()}.{threading.get_ident()}.so")
-    cmd = [compiler(), *_FLAGS, "-o", str(tmp), str(c_file), "-lm"]
+    cmd = [compiler(), *_flags(), *flags, "-o", str(tmp), str(c_file), "-lm"]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"building the model's compiled loops failed ({' '.join(cmd)}):\n{done.stderr[-3000:]}")
@@ -80,39 +98,62 @@ def _build(src: str, digest: str) -> Path:
     return lib
 
 
+# each loop's library: the source it is built from (codegen.SOURCES) and the macro that selects it in loops.c
+PARTS = {"forward": ("values", "-DHH_FORWARD"), "tangent": ("derivatives", "-DHH_TANGENT"),
+         "backward": ("derivatives", "-DHH_BACKWARD")}
+
+
+def _library(eq: Equations, key: str, part: str, sources: dict) -> Path:
+    """The library of one loop (``PARTS``) of the equations with hash ``key``: found again through an index file
+    next to it (no source generated), else generated (each source once per model: ``sources`` keeps them) and
+    built."""
+    kind, flag = PARTS[part]
+    index = _cache_dir() / f"eq_{key}.{part}.txt"
+    digest = index.read_text().strip() if index.exists() else ""
+    lib = _cache_dir() / f"hh_{digest}.so"
+    if not digest or not lib.exists():
+        if kind not in sources:
+            sources.setdefault(kind, generate_source(eq, kind))
+        src = sources[kind]
+        digest = hashlib.sha1(" ".join([*_flags(), flag, src]).encode()).hexdigest()[:16]
+        lib = _build(src, digest, (flag,))
+        _write(index, digest)
+    return lib
+
+
+def _compiled(eq: Equations) -> Compiled:
+    """The one ``Compiled`` of these equations in this process (nothing built yet for a new one)."""
+    key = equations_key(eq)
+    with _LOCK:
+        module = _MODULES.get(key)
+        if module is None:
+            module = _MODULES[key] = Compiled(eq, key)
+        return module
+
+
 def compile_equations(eq: Equations) -> Compiled:
-    """The compiled loops of these equations (built on first use, then loaded from the disk cache).
+    """The compiled loops of these equations, their forward loop built (on first use, then loaded from the disk
+    cache; the tangent and the adjoint when a call first needs them).
 
     Libraries are found again by the hash of the equations (an index file next to them), so a model seen
     before — in this process or an earlier one — skips the source generation as well as the build.
     """
-    key = equations_key(eq)
-    with _LOCK:
-        if key in _MODULES:
-            return _MODULES[key]
-    index = _cache_dir() / f"eq_{key}.txt"
-    digest = index.read_text().strip() if index.exists() else ""
-    lib = _cache_dir() / f"hh_{digest}.so"
-    if not digest or not lib.exists():
-        src = generate_source(eq)
-        digest = hashlib.sha1(" ".join([*_FLAGS, src]).encode()).hexdigest()[:16]
-        lib = _build(src, digest)
-        _write(index, digest)
-    module = Compiled(lib, len(eq.state), len(eq.params), len(eq.outputs), len(eq.inputs))
-    with _LOCK:
-        return _MODULES.setdefault(key, module)
+    module = _compiled(eq)
+    module.load("forward")
+    return module
 
 
-def prebuild(equations: list[Equations], workers: int | None = None) -> None:
-    """Build several models' libraries at once (one compiler process each, ``workers`` at a time): a
-    discovery step's candidates are built side by side instead of one after the other."""
-    todo = [eq for eq in equations if equations_key(eq) not in _MODULES]
+def prebuild(equations: list[Equations], workers: int | None = None,
+             parts: tuple[str, ...] = ("forward", "tangent")) -> None:
+    """Build several models' loops at once (one compiler process each, ``workers`` at a time): a discovery step's
+    candidates are built side by side instead of one after the other, with the loops a fit runs (``parts``)."""
+    todo = [(module, part) for module in map(_compiled, equations) for part in parts if part not in module._fns]
     if len(todo) < 2:
-        for eq in todo:
-            compile_equations(eq)
+        for module, part in todo:
+            module.load(part)
         return
     with ThreadPoolExecutor(max_workers=workers or row_threads()) as pool:
-        list(pool.map(compile_equations, todo))
+        list(pool.map(lambda job: job[0].load(job[1]), todo))
 
 
 def row_threads() -> int:
@@ -159,20 +200,34 @@ def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_o
 
 
 class Compiled:
-    """One model's built loops: ``forward``, ``backward`` and ``tangent`` over numpy float64 arrays (the
-    layout of ``loops.c``), with the rows of a batch spread over threads (ctypes releases the GIL)."""
+    """One model's loops: ``forward``, ``backward`` and ``tangent`` over numpy float64 arrays (the layout of
+    ``loops.c``), each built and loaded when first called (``load``), with the rows of a batch spread over threads
+    (ctypes releases the GIL)."""
 
-    def __init__(self, path: Path, n_state: int, n_param: int, n_out: int, n_in: int = 3):
-        self.path = path
-        self.S, self.P, self.O, self.NI = n_state, n_param, n_out, n_in
-        lib = ctypes.CDLL(str(path))
+    def __init__(self, eq: Equations, key: str):
+        self.eq, self.key = eq, key
+        self.S, self.P, self.O, self.NI = len(eq.state), len(eq.params), len(eq.outputs), len(eq.inputs)
+        self._fns: dict = {}
+        self._sources: dict = {}  # the generated sources, while a loop of this model may still need one
+
+    def load(self, name: str):
+        """The exported function of loop ``name`` (``PARTS``), built and loaded if it is not yet (two threads
+        asking at once may both build it: the same file, renamed into place)."""
+        fn = self._fns.get(name)
+        if fn is not None:
+            return fn
+        lib = ctypes.CDLL(str(_library(self.eq, self.key, name, self._sources)))
+        fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
+        n_before, n_after = {"forward": (4, 2), "backward": (6, 3), "tangent": (6, 2)}[name]
         L, V = ctypes.c_long, ctypes.c_void_p
-        self._fns = {}
-        for name, n_before, n_after in (("forward", 4, 2), ("backward", 6, 3), ("tangent", 6, 2)):
-            fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
-            fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
-            fn.restype = None
-            self._fns[name] = fn
+        fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
+        fn.restype = None
+        with _LOCK:
+            fn = self._fns.setdefault(name, fn)
+            kind = PARTS[name][0]
+            if all(part in self._fns for part, (k, _) in PARTS.items() if k == kind):
+                self._sources.pop(kind, None)
+            return fn
 
     def _run(self, name: str, B: int, T: int, arrays_before: dict, nst: int, tableau: list, sub: int,
              arrays_after: dict, NT: int) -> None:
@@ -182,7 +237,7 @@ class Compiled:
             raise ValueError(f"compiled {name}: a tableau of {nst} stages and sub >= 1, got {A.shape}, sub {sub}")
         _check(name, {"c": c, "A": A, "bw": bw}, B, T, NT, self.S, self.P, self.O, self.NI)
         arrays_before, arrays_after = list(arrays_before.values()), list(arrays_after.values())
-        fn = self._fns[name]
+        fn = self.load(name)
         ptrs_before = [_pointer(a) for a in arrays_before]
         ptrs_tab = [_pointer(a) for a in tableau]
         ptrs_after = [_pointer(a) for a in arrays_after]

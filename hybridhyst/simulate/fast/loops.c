@@ -5,7 +5,8 @@
    h (B, T - 1) each row's sample intervals, th (B, NT) each row's P parameter values then the networks'
    weights, s0 (B, S), states (B, T, S), y (B, T, O). The explicit Runge-Kutta tableau is c (nst), A (nst, nst),
    bw (nst); ``sub`` sub-steps per sample interval, the input linearly interpolated inside it. The exported
-   functions run rows [b0, b1): the caller spreads rows over threads. */
+   functions run rows [b0, b1): the caller spreads rows over threads. A library holds one of them: hh_forward
+   (HH_FORWARD, the values source), hh_tangent (HH_TANGENT) or hh_backward (HH_BACKWARD, the derivatives source). */
 
 /* Y = st + hk * sum_l A[j, l] K[l] (the state at stage j). */
 static inline void stage_state(const double *st, const double *K, int j, double hk, const double *A, int nst,
@@ -65,6 +66,7 @@ static inline void project(double *st, const double *lo, const double *hi, doubl
     }
 }
 
+#ifdef HH_FORWARD
 static void forward_row(int T, const double *U, const double *h, const double *th, const double *s0, int nst,
                         const double *c, const double *A, const double *bw, int sub, double *states, double *y) {
     double K[nst * DIM(S)], Y[DIM(S)], st[DIM(S)], g[DIM(O)], buf[NB];
@@ -86,7 +88,9 @@ static void forward_row(int T, const double *U, const double *h, const double *t
         for (int o = 0; o < O; o++) y[k * O + o] = g[o];
     }
 }
+#endif /* HH_FORWARD */
 
+#ifdef HH_TANGENT
 typedef void (*jac_kernel)(const double *, const double *, const double *, double *, double *, double *, double *,
                            double *);
 typedef void (*vjp_kernel)(const double *, const double *, const double *, const double *, double *, double *,
@@ -220,7 +224,9 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
     free(FT);
     free(gt);
 }
+#endif /* HH_TANGENT */
 
+#ifdef HH_BACKWARD
 /* Exact adjoint of forward_row: accumulates dL/dth (NT), dL/dU (T, NI), dL/ds0 (S) from dL/dy (T, O) and
    dL/d(states at the samples) (T, S). */
 static void backward_row(int T, int NT, const double *U, const double *h, const double *th, const double *states,
@@ -329,7 +335,9 @@ static void backward_row(int T, int NT, const double *U, const double *h, const 
     free(flags);
     free(buf);
 }
+#endif /* HH_BACKWARD */
 
+#ifdef HH_FORWARD
 void hh_forward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                 const double *s0, long nst, const double *c, const double *A, const double *bw, long sub,
                 double *states, double *y) {
@@ -340,7 +348,9 @@ void hh_forward(long b0, long b1, long T, long NT, const double *U, const double
         free(thx);
     }
 }
+#endif /* HH_FORWARD */
 
+#ifdef HH_BACKWARD
 void hh_backward(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                  const double *states, const double *gy, const double *gS, long nst, const double *c,
                  const double *A, const double *bw, long sub, double *gth, double *gU, double *gs0) {
@@ -351,7 +361,9 @@ void hh_backward(long b0, long b1, long T, long NT, const double *U, const doubl
         free(thx);
     }
 }
+#endif /* HH_BACKWARD */
 
+#ifdef HH_TANGENT
 void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
                 const double *s0, const double *ds0, const double *want, long nst, const double *c, const double *A,
                 const double *bw, long sub, double *y, double *dy) {
@@ -362,3 +374,4 @@ void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double
         free(thx);
     }
 }
+#endif /* HH_TANGENT */
