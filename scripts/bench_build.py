@@ -108,9 +108,10 @@ def first_call(make) -> dict:
 
 
 def shared_sums(repeats: int = 2) -> dict:
-    """The every-effect models' C source generated with equal sums sharing one ``gcd_terms`` result
-    (``codegen._shared_gcd_terms``) and with sympy's own, alternating; seconds (best of ``repeats``) and whether
-    the two sources are the same."""
+    """The every-effect models' C source (the derivatives source) generated with equal sums sharing one
+    ``gcd_terms`` result and each expression's free symbols kept (``codegen._shared_gcd_terms``,
+    ``codegen._shared_free_symbols``), with the sums shared alone, and with sympy's own, alternating; seconds (best
+    of ``repeats``) and whether the sources are the same."""
     import contextlib
 
     import sympy
@@ -119,22 +120,25 @@ def shared_sums(repeats: int = 2) -> dict:
     from hybridhyst.simulate.fast.equations import build_equations
 
     out = {}
-    shared = codegen._shared_gcd_terms
+    sums, free = codegen._shared_gcd_terms, codegen._shared_free_symbols
+    off = contextlib.nullcontext
+    ways = {"shared": (sums, free), "sums_only": (sums, off), "sympy": (off, off)}
     for structure in ("constitutive", "oscillator"):
         eq = build_equations(every_effect(structure).double())
-        times, sources = {"shared": [], "sympy": []}, {}
+        times, sources = {how: [] for how in ways}, {}
         try:
             for _ in range(repeats):
-                for how in times:
-                    codegen._shared_gcd_terms = shared if how == "shared" else contextlib.nullcontext
+                for how, (a, b) in ways.items():
+                    codegen._shared_gcd_terms, codegen._shared_free_symbols = a, b
                     sympy.core.cache.clear_cache()
                     t0 = time.perf_counter()
                     sources[how] = codegen.generate_source(eq)
                     times[how].append(time.perf_counter() - t0)
         finally:
-            codegen._shared_gcd_terms = shared
-        out[f"every effect ({structure})"] = {"shared_s": min(times["shared"]), "sympy_s": min(times["sympy"]),
-                                              "same_source": sources["shared"] == sources["sympy"]}
+            codegen._shared_gcd_terms, codegen._shared_free_symbols = sums, free
+        out[f"every effect ({structure})"] = {
+            "shared_s": min(times["shared"]), "sums_only_s": min(times["sums_only"]), "sympy_s": min(times["sympy"]),
+            "same_source": sources["shared"] == sources["sums_only"] == sources["sympy"]}
     return out
 
 
@@ -250,9 +254,10 @@ def markdown(res: dict) -> str:
                   f"{s['one_after_another_s']:.1f} s one after another."]
     for name, g in res.get("shared_sums", {}).items():
         ratio = g["sympy_s"] / g["shared_s"]
-        lines += ["", f"{name}: its C source generated in {g['shared_s']:.2f} s with equal sums sharing one "
-                      f"`gcd_terms` result, {g['sympy_s']:.2f} s with sympy's own ({ratio:.2f}×; "
-                      f"the same source: {'yes' if g['same_source'] else '**no**'})."]
+        lines += ["", f"{name}: its derivatives source generated in {g['shared_s']:.2f} s with equal sums sharing one "
+                      f"`gcd_terms` result and each expression's free symbols kept, {g['sums_only_s']:.2f} s with the "
+                      f"sums shared alone ({g['sums_only_s'] / g['shared_s']:.2f}×), {g['sympy_s']:.2f} s with "
+                      f"sympy's own ({ratio:.2f}×; the same source: {'yes' if g['same_source'] else '**no**'})."]
     if "main_job" in res:
         m = res["main_job"]
         lines += ["", f"The main job (`hybridhyst-discover`, bundled BRFD data) on an empty cache: "

@@ -290,14 +290,17 @@ def test_tanh_in_the_equations_is_real_by_declaration_and_printed_as_c_tanh():
 
 
 def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writes_it(monkeypatch):
-    """Source generation shares ``gcd_terms`` results between equal sums (``codegen._shared_gcd_terms``) and writes
-    a Jacobian entry whose symbol the expression lacks as 0 without asking sympy: the C source must be the one
-    sympy's own functions give, sympy asked once per distinct sum, and its module left as it was (also when the
-    generation fails)."""
+    """Source generation shares ``gcd_terms`` results between equal sums (``codegen._shared_gcd_terms``), keeps each
+    expression's free symbols (``codegen._shared_free_symbols``) and writes a Jacobian entry whose symbol the
+    expression lacks as 0 without asking sympy: the C source must be the one sympy's own functions give, sympy asked
+    once per distinct sum, and its module left as it was (also when the generation fails)."""
     import contextlib
 
     import sympy as sp
     from sympy.core import exprtools
+    from sympy.core.basic import Basic
+
+    free_symbols = Basic.__dict__["free_symbols"]
 
     from hybridhyst.simulate.fast import codegen
     from hybridhyst.simulate.fast.equations import build_equations
@@ -317,6 +320,7 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
             m.setattr(exprtools, "gcd_terms", counting)
             if not shared:
                 m.setattr(codegen, "_shared_gcd_terms", contextlib.nullcontext)
+                m.setattr(codegen, "_shared_free_symbols", contextlib.nullcontext)
                 m.setattr(codegen, "_jac", lambda exprs, wrt, name: [
                     (f"{name}[{i * len(wrt) + j}]", sp.diff(e, w))
                     for i, e in enumerate(exprs) for j, w in enumerate(wrt)])
@@ -328,7 +332,16 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
     theirs, asked_by_sympy = generate(shared=False)
     assert ours == theirs
     assert asked and len(asked) == len(set(asked)) < len(asked_by_sympy)
-    assert exprtools.gcd_terms is original
+    assert exprtools.gcd_terms is original and Basic.__dict__["free_symbols"] is free_symbols
+
+    # the free symbols kept: the same answer, a set of its own at each call (sympy's callers change theirs)
+    x, y, z = sp.symbols("x y z")
+    expr = sp.exp(x * y) + z
+    with codegen._shared_free_symbols():
+        first = expr.free_symbols
+        first.add(sp.Symbol("w"))
+        assert expr.free_symbols == {x, y, z} and (x * z).free_symbols == {x, z}
+    assert Basic.__dict__["free_symbols"] is free_symbols
 
     # two generations at once (as prebuild runs them in threads): the second waits while the first holds the swap,
     # and sympy's own function is back after both (the second must not take the first's for sympy's)
@@ -369,7 +382,7 @@ def test_shared_sums_and_skipped_zero_derivatives_leave_the_source_as_sympy_writ
     monkeypatch.setattr(codegen, "_source", boom)
     with pytest.raises(RuntimeError, match="generation failed"):
         codegen.generate_source(eq)
-    assert exprtools.gcd_terms is original
+    assert exprtools.gcd_terms is original and Basic.__dict__["free_symbols"] is free_symbols
 
 
 def test_no_c_compiler_is_one_clear_error(monkeypatch):

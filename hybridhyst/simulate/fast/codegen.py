@@ -37,6 +37,7 @@ from pathlib import Path
 
 import sympy as sp
 from sympy.core import exprtools
+from sympy.core.basic import Basic
 from sympy.printing.c import C99CodePrinter
 
 from .equations import Equations
@@ -194,6 +195,34 @@ def _shared_gcd_terms():
             exprtools.gcd_terms = original
 
 
+@contextmanager
+def _shared_free_symbols():
+    """sympy computes an expression's ``free_symbols`` by walking it at every call and keeps no answer; ``diff`` asks
+    it of every factor of every product at every level, ``_jac`` and the networks' inputs again: about a quarter of
+    the derivatives source's generation for the models of every effect. While one model's source is generated, each
+    expression's answer is kept (expressions are immutable; keyed by identity, the expression held with it) and a
+    copy handed out (sympy's callers change the set they get): the same source, byte for byte. Swapped in sympy's
+    ``Basic`` for the duration under ``_GCD_LOCK``, and serving only the generating thread, as ``_shared_gcd_terms``."""
+    done: dict = {}
+    owner = threading.get_ident()
+
+    def free_symbols(self):
+        if threading.get_ident() != owner:
+            return original.fget(self)
+        hit = done.get(id(self))
+        if hit is None or hit[0] is not self:
+            hit = done[id(self)] = (self, original.fget(self))
+        return set(hit[1])
+
+    with _GCD_LOCK:
+        original = Basic.__dict__["free_symbols"]
+        Basic.free_symbols = property(free_symbols, doc=original.__doc__)
+        try:
+            yield
+        finally:
+            Basic.free_symbols = original
+
+
 def _network_adjoint(name: str, exprs: list, printer, eq: Equations) -> str:
     """``name(s, in, th, w, lam, gth, gin, buf)``: the networks' part of the adjoint of ``exprs``
     (the right-hand side or the outputs) weighted by ``w``, with the networks' layers in ``buf`` (written by
@@ -244,7 +273,7 @@ def generate_source(eq: Equations, kind: str = "derivatives") -> str:
     """One of the C sources of one model (``SOURCES``): runtime, sizes, the kernels, loops."""
     if kind not in SOURCES:
         raise ValueError(f"unknown source {kind!r}; choose one of {SOURCES}")
-    with _shared_gcd_terms():
+    with _shared_gcd_terms(), _shared_free_symbols():
         return _source(eq, kind)
 
 
