@@ -200,9 +200,12 @@ def linear_bounds() -> dict:
 
 
 def warm_up(model, rec, conditions=None) -> float:
-    """First fast call of a model (C build or disk-cache load): timed separately, excluded elsewhere."""
+    """First fast call of a model (C build or disk-cache load of the loops identification runs: the values and the
+    forward sensitivities): timed separately, excluded elsewhere."""
     from hybridhyst.simulate import simulate
+    from hybridhyst.simulate.fast import prebuild_models
 
     t0 = time.perf_counter()
+    prebuild_models([model])
     simulate(model, np.asarray(rec.x)[None], t=np.asarray(rec.t), conditions=conditions, backend="fast")
     return time.perf_counter() - t0

@@ -468,7 +468,7 @@ def test_each_loop_is_built_when_a_call_first_needs_it(tmp_path, monkeypatch, fl
         values = model.evaluate(None, 1)
     simulate_jacobian(model, u[None], t, values=values)
     assert generated == ["values", "derivatives"] and set(module._fns) == {"forward", "backward", "tangent"}
-    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 3 and not module._sources  # the source let go
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 3  # the derivatives source generated once, read back
     with pytest.raises(ValueError, match="unknown source"):
         codegen.generate_source(module.eq, "everything")
 
@@ -478,6 +478,19 @@ def test_each_loop_is_built_when_a_call_first_needs_it(tmp_path, monkeypatch, fl
     torch.autograd.grad(simulate(model, u[None], t=t, backend="fast").square().sum(), params)
     simulate_jacobian(model, u[None], t, values=values)
     assert torch.equal(y, again) and generated == ["values", "derivatives"]
+
+    # another optimisation level finds its own libraries, not those built at this one
+    build._MODULES.clear()
+    function._COMPILED.clear()
+    monkeypatch.setattr(build, "OPT", "-O2")
+    build._flags.cache_clear()
+    build._settings_key.cache_clear()
+    try:
+        assert torch.equal(simulate(model, u[None], t=t, backend="fast"), y)
+        assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 4
+    finally:
+        build._flags.cache_clear()
+        build._settings_key.cache_clear()
 
 
 def test_values_hoisted_out_of_the_kernels_leave_every_number_as_it_was(tmp_path, monkeypatch, float64):
@@ -546,6 +559,35 @@ def test_rows_spread_over_threads_give_the_same_numbers_as_one_thread(monkeypatc
         assert torch.equal(a, b)
 
 
+def test_threads_asking_for_a_new_loop_at_once_build_it_once(tmp_path, monkeypatch, float64):
+    """The rows' threads, prebuild's and discovery's worker threads may ask for a loop of the same model at once: one
+    builds it (its source generated once), the others wait for it and get the same function."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hybridhyst.simulate.fast import build, codegen
+    from hybridhyst.simulate.fast.equations import build_equations
+
+    monkeypatch.setenv("HYBRIDHYST_CACHE", str(tmp_path))
+    monkeypatch.setattr(build, "_MODULES", {})
+    generated, lock = [], threading.Lock()
+
+    def slow(eq, kind):
+        with lock:
+            generated.append(kind)
+        time.sleep(0.2)  # long enough for every thread to ask while the first generates
+        return codegen.generate_source(eq, kind)
+
+    monkeypatch.setattr(build, "generate_source", slow)
+    eq = build_equations(Constitutive({"dahl": EFFECTS["dahl"](**EFFECT_VALUES["dahl"])}).double())
+    module = build._compiled(eq)
+    with ThreadPoolExecutor(4) as pool:
+        fns = list(pool.map(lambda _: module.load("tangent"), range(4)))
+    assert generated == ["derivatives"] and all(f is fns[0] for f in fns)
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 1
+
+
 def test_prebuild_builds_several_models_side_by_side(tmp_path, monkeypatch, float64):
     from hybridhyst.simulate.fast import build, function, prebuild_models
 
@@ -553,12 +595,14 @@ def test_prebuild_builds_several_models_side_by_side(tmp_path, monkeypatch, floa
     monkeypatch.setattr(build, "_MODULES", {})
     monkeypatch.setattr(function, "_COMPILED", {})
     models = [Constitutive({"viscous": EFFECTS["viscous"](c=0.3), name: EFFECTS[name](**EFFECT_VALUES[name])})
-              for name in ("dahl", "coulomb", "stribeck")]
+              for name in ("dahl", "coulomb", "stribeck", "time_delay")]
     prebuild_models(models)
-    # the loops a candidate's fit runs: the values and the forward sensitivities (no adjoint)
-    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 6
-    assert len(build._MODULES) == 3
-    assert all(set(m._fns) == {"forward", "tangent"} for m in build._MODULES.values())
+    # the loops a candidate's fit runs: the values and the forward sensitivities (no adjoint; none with a delay,
+    # which the sensitivities do not cover)
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 7
+    assert len(build._MODULES) == 4
+    assert sorted(tuple(sorted(m._fns)) for m in build._MODULES.values()) == [("forward",)] + [("forward",
+                                                                                               "tangent")] * 3
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here (the GPU machine runs it)")

@@ -34,7 +34,7 @@ def _cache_dir() -> Path:
     path = Path(root) / "fast"
     try:
         path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".write-test"
+        probe = path / f".write-test.{os.getpid()}.{threading.get_ident()}"  # one per writer: none unlinks another's
         probe.write_text("ok")
         probe.unlink()
     except OSError:
@@ -103,18 +103,37 @@ PARTS = {"forward": ("values", "-DHH_FORWARD"), "tangent": ("derivatives", "-DHH
          "backward": ("derivatives", "-DHH_BACKWARD")}
 
 
-def _library(eq: Equations, key: str, part: str, sources: dict) -> Path:
+@functools.cache
+def _settings_key() -> str:
+    """What an index file's name holds beside the equations' hash: this file (``PARTS``, the flags), the level
+    asked for and the compiler named by ``$CC`` (another level finds its own libraries, not the ones built at
+    this)."""
+    text = Path(__file__).read_bytes() + f" {OPT} {os.environ.get('CC', '')}".encode()
+    return hashlib.sha1(text).hexdigest()[:8]
+
+
+def _source(eq: Equations, key: str, kind: str) -> str:
+    """One of the generated sources of the equations with hash ``key``: read back from the cache, else generated
+    and kept there (the tangent and the adjoint share one: the second to be built, in this process or another,
+    reads it)."""
+    path = _cache_dir() / f"src_{key}.{kind}.c"
+    try:
+        return path.read_text()
+    except OSError:
+        src = generate_source(eq, kind)
+        _write(path, src)
+        return src
+
+
+def _library(eq: Equations, key: str, part: str) -> Path:
     """The library of one loop (``PARTS``) of the equations with hash ``key``: found again through an index file
-    next to it (no source generated), else generated (each source once per model: ``sources`` keeps them) and
-    built."""
+    next to it (no source generated), else built from its source."""
     kind, flag = PARTS[part]
-    index = _cache_dir() / f"eq_{key}.{part}.txt"
+    index = _cache_dir() / f"eq_{key}.{part}.{_settings_key()}.txt"
     digest = index.read_text().strip() if index.exists() else ""
     lib = _cache_dir() / f"hh_{digest}.so"
     if not digest or not lib.exists():
-        if kind not in sources:
-            sources.setdefault(kind, generate_source(eq, kind))
-        src = sources[kind]
+        src = _source(eq, key, kind)
         digest = hashlib.sha1(" ".join([*_flags(), flag, src]).encode()).hexdigest()[:16]
         lib = _build(src, digest, (flag,))
         _write(index, digest)
@@ -143,11 +162,12 @@ def compile_equations(eq: Equations) -> Compiled:
     return module
 
 
-def prebuild(equations: list[Equations], workers: int | None = None,
-             parts: tuple[str, ...] = ("forward", "tangent")) -> None:
+def prebuild(jobs: list[tuple[Equations, tuple[str, ...]]], workers: int | None = None) -> None:
     """Build several models' loops at once (one compiler process each, ``workers`` at a time): a discovery step's
-    candidates are built side by side instead of one after the other, with the loops a fit runs (``parts``)."""
-    todo = [(module, part) for module in map(_compiled, equations) for part in parts if part not in module._fns]
+    candidates are built side by side instead of one after the other. ``jobs``: each model's equations and the
+    loops (``PARTS``) to build."""
+    todo = [(module, part) for eq, parts in jobs for module in [_compiled(eq)] for part in parts
+            if part not in module._fns]
     if len(todo) < 2:
         for module, part in todo:
             module.load(part)
@@ -174,9 +194,12 @@ _MIN_ROW_WORK = int(os.environ.get("HYBRIDHYST_FAST_MIN_WORK", "20000"))  # samp
 
 
 def _after_fork() -> None:
-    """A forked child (a process pool's worker) has none of its parent's threads: a fresh pool and lock."""
+    """A forked child (a process pool's worker) has none of its parent's threads: a fresh pool and fresh locks
+    (one its parent's thread held at the fork would never be released here)."""
     global _POOL, _LOCK
     _POOL, _LOCK = None, threading.Lock()
+    for module in _MODULES.values():
+        module._locks = {part: threading.Lock() for part in PARTS}
 
 
 os.register_at_fork(after_in_child=_after_fork)
@@ -208,25 +231,24 @@ class Compiled:
         self.eq, self.key = eq, key
         self.S, self.P, self.O, self.NI = len(eq.state), len(eq.params), len(eq.outputs), len(eq.inputs)
         self._fns: dict = {}
-        self._sources: dict = {}  # the generated sources, while a loop of this model may still need one
+        self._locks = {part: threading.Lock() for part in PARTS}  # one build of each loop at a time
 
     def load(self, name: str):
-        """The exported function of loop ``name`` (``PARTS``), built and loaded if it is not yet (two threads
-        asking at once may both build it: the same file, renamed into place)."""
+        """The exported function of loop ``name`` (``PARTS``), built and loaded if it is not yet (a thread asking
+        while another builds it waits for that build)."""
         fn = self._fns.get(name)
         if fn is not None:
             return fn
-        lib = ctypes.CDLL(str(_library(self.eq, self.key, name, self._sources)))
-        fn = getattr(lib, f"hh_{name}")  # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
-        n_before, n_after = {"forward": (4, 2), "backward": (6, 3), "tangent": (6, 2)}[name]
-        L, V = ctypes.c_long, ctypes.c_void_p
-        fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
-        fn.restype = None
-        with _LOCK:
-            fn = self._fns.setdefault(name, fn)
-            kind = PARTS[name][0]
-            if all(part in self._fns for part, (k, _) in PARTS.items() if k == kind):
-                self._sources.pop(kind, None)
+        with self._locks[name]:
+            fn = self._fns.get(name)
+            if fn is None:
+                fn = getattr(ctypes.CDLL(str(_library(self.eq, self.key, name))), f"hh_{name}")
+                # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
+                n_before, n_after = {"forward": (4, 2), "backward": (6, 3), "tangent": (6, 2)}[name]
+                L, V = ctypes.c_long, ctypes.c_void_p
+                fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
+                fn.restype = None
+                self._fns[name] = fn
             return fn
 
     def _run(self, name: str, B: int, T: int, arrays_before: dict, nst: int, tableau: list, sub: int,

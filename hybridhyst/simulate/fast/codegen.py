@@ -1,14 +1,14 @@
 """Generate and compile (C, the system compiler) the integration loops of one model with exact discrete adjoints.
 
 For a model with S states, P parameters, O outputs and NI inputs (u, u̇, ü and the control channels),
-the generated C file holds the kernels ``rhs(s, in, th, f, buf)`` and ``rhs_jac(..., f, fs, fth, fin, buf)``
+the generated C holds the kernels ``rhs(s, in, th, f, buf)`` and ``rhs_jac(..., f, fs, fth, fin, buf)``
 (values and Jacobians w.r.t. state, parameters and inputs), the same pair for the outputs, the state bounds,
-and then the loops of ``loops.c``: ``forward``, ``backward`` (the exact adjoint of the discrete explicit
-Runge–Kutta map on the sample grid with sub-steps — the same numbers as autograd through the reference loop)
-and ``tangent`` (the same map's forward sensitivities w.r.t. every parameter and network weight in one pass: whole
-Jacobians for Levenberg–Marquardt; the networks' share of each Jacobian row is one back-propagation through their
-layers, ``rhs_net_vjp`` with a unit weight). ``runtime.c`` comes first: the non-smooth functions and the MLP
-kernels.
+and then the loops of ``loops.c`` (one per library, below): ``forward``, ``backward`` (the exact adjoint of the
+discrete explicit Runge–Kutta map on the sample grid with sub-steps — the same numbers as autograd through the
+reference loop) and ``tangent`` (the same map's forward sensitivities w.r.t. every parameter and network weight in
+one pass: whole Jacobians for Levenberg–Marquardt; the networks' share of each Jacobian row is one
+back-propagation through their layers, ``rhs_net_vjp`` with a unit weight). ``runtime.c`` comes first: the
+non-smooth functions and the MLP kernels.
 
 Powers and functions of the parameters alone (LuGre's 1/vs², a level's reciprocal) are not evaluated at every stage:
 the kernels read them after the parameters in ``th``, where ``hoisted(th)`` writes them once per row (``_Printer``;
@@ -31,6 +31,7 @@ the same expression printed the same way in either source (a hoisted value's ind
 from __future__ import annotations
 
 import hashlib
+import os
 import threading
 from contextlib import contextmanager
 from pathlib import Path
@@ -157,6 +158,9 @@ def _jac(exprs, wrt, name: str) -> list[tuple[str, sp.Expr]]:
 
 
 _GCD_LOCK = threading.RLock()
+# a fork waits for a generation in progress: the child never inherits sympy's functions swapped, nor the lock held by
+# a thread it does not have
+os.register_at_fork(before=_GCD_LOCK.acquire, after_in_parent=_GCD_LOCK.release, after_in_child=_GCD_LOCK.release)
 
 
 @contextmanager
@@ -215,7 +219,10 @@ def _shared_free_symbols():
         return set(hit[1])
 
     with _GCD_LOCK:
-        original = Basic.__dict__["free_symbols"]
+        original = Basic.__dict__.get("free_symbols")
+        if not isinstance(original, property):  # another sympy: its own, uncached
+            yield
+            return
         Basic.free_symbols = property(free_symbols, doc=original.__doc__)
         try:
             yield
