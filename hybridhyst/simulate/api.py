@@ -286,9 +286,7 @@ def jacobian_covers(model) -> bool:
 
 
 def _delayed(model) -> bool:
-    from ..physics.effects.base import Effect
-
-    return any(type(e).input_delay is not Effect.input_delay for e in model.effects.values())
+    return any(e.delays_input for e in model.effects.values())
 
 
 def row_jacobian(fn: Callable[[torch.Tensor], list[torch.Tensor]], x: torch.Tensor,

@@ -312,6 +312,11 @@ class Effect(nn.Module):
         the input, a lag or saturation of a control)."""
         return type(self).transform is not Effect.transform
 
+    @property
+    def delays_input(self) -> bool:
+        """Whether the structure reads its input with a delay this effect sets (``input_delay`` overridden)."""
+        return type(self).input_delay is not Effect.input_delay
+
     def input_delay(self, p: dict[str, torch.Tensor]) -> torch.Tensor | None:
         """Delay ``(batch,)`` [t] with which the structure reads its input, or None."""
         return None

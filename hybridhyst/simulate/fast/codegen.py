@@ -298,6 +298,7 @@ def _source(eq: Equations, kind: str = "derivatives") -> str:
                                                                                  "dhi")
     widths = [f"static const int W{k}[] = {{{', '.join(map(str, net.widths))}}};" for k, net in enumerate(eq.networks)]
     live, rhs_nets = _state_columns(eq)
+    # the kernels in one order in both sources (the derivatives source's text as when it was the only one)
     kernels = [_kernel("bounds", args + ["lo", "hi", "dlo", "dhi"], b_full, printer, eq),
                _kernel("rhs", args + ["f", "buf"], f_t, printer, eq)]
     if kind == "derivatives":

@@ -7,7 +7,6 @@ import functools
 import numpy as np
 import torch
 
-from ...physics.effects.base import Effect
 from ...physics.effects.neural import NeuralEffect
 from ..fixed import TABLEAUX
 from .build import compile_equations, prebuild
@@ -58,13 +57,9 @@ def prebuild_models(models, controls: tuple[str, ...] = ()) -> None:
     once as there are cores), before they are simulated one after another: a discovery step's candidates (with the
     control channels ``controls`` of the records they will simulate). The loops: the values, and the forward
     sensitivities where they cover the model (not where an effect reads the input with a delay)."""
-    prebuild([(build_equations(m, tuple(controls)), ("forward",) if _delayed(m) else ("forward", "tangent"))
+    prebuild([(build_equations(m, tuple(controls)),
+               ("forward",) if any(e.delays_input for e in m.effects.values()) else ("forward", "tangent"))
               for m in models])
-
-
-def _delayed(model) -> bool:
-    """Whether an effect of ``model`` reads the input with a delay (the compiled forward sensitivities refuse it)."""
-    return any(type(e).input_delay is not Effect.input_delay for e in model.effects.values())
 
 
 def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
