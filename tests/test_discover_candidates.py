@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 
@@ -52,15 +53,11 @@ def test_sign_smoothing_widths_are_searched_well_below_the_data_speeds():
     assert stribeck.bounds["stribeck.vs"][1] > scales.v  # the Stribeck speed is not a smoothing width
 
 
-def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away_from_rest(float64):
-    """Records from an exact gap + Dahl integration (numpy, ``testbed.generators``), each started as a rig
-    starts a test: moved down to −A first, so the gap is closed on the negative side and the element fully
-    deflected. From the clearance started at rest, the start candidate (``start_candidates``: one per effect
-    with ``Effect.start``, not for one that has its start already, never a condition trend) recovers q0 and
-    brings the error to the noise; the condition candidates leave the start state alone."""
-    from hybridhyst.discover.candidates import condition_candidates, start_candidates
-    from hybridhyst.discover.fitting import fit_candidate, polish
-    from hybridhyst.physics.effects import Clearance, Dahl, LinearStiffness, LuGre
+def _clearance_start_records(n_periods: float = 2.0):
+    """Two records from an exact gap + Dahl integration (numpy, ``testbed.generators``) on a refined path, each
+    started with the gap closed on the negative side; a spring + clearance nominal polished on them."""
+    from hybridhyst.discover.fitting import polish
+    from hybridhyst.physics.effects import Clearance, LinearStiffness
     from hybridhyst.physics.models import Constitutive
     from hybridhyst.testbed.generators import clearance_dahl
 
@@ -69,8 +66,8 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     rng = np.random.default_rng(3)
     records = []
     for amp in (0.5, 1.0):
-        t = np.arange(0, 2.0, 1 / 150)
-        fine = np.linspace(0, 2.0, 20 * len(t) - 19)  # exact on a refined path, sampled every 20th point
+        t = np.arange(0, n_periods, 1 / 150)
+        fine = np.linspace(0, n_periods, 20 * len(t) - 19)  # exact on a refined path, sampled every 20th point
         x_fine = -amp * np.cos(2 * np.pi * fine)
         y = 2 * x_fine[::20] + clearance_dahl(x_fine, r, sigma0, up, down, q0)[::20]
         records.append(Record(f"a{amp}", t, x_fine[::20], y + noise * rng.standard_normal(len(t)),
@@ -78,7 +75,21 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     model = Constitutive({"spring": LinearStiffness(k=2.0), "clearance": Clearance(sigma0=12.0, Fc=0.55, a=-0.1,
                                                                                     r=0.05)}).double()
     sim = SimulationSettings(substeps=2)
-    fit = polish(model, records, sim, 25, 10.0)
+    return records, polish(model, records, sim, 25, 10.0), sim, q0, noise
+
+
+def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away_from_rest(float64):
+    """Records from an exact gap + Dahl integration (numpy, ``testbed.generators``), each started as a rig
+    starts a test: moved down to −A first, so the gap is closed on the negative side and the element fully
+    deflected. From the clearance started at rest, the start candidate (``start_candidates``: one per effect
+    with ``Effect.start``, not for one that has its start already, never a condition trend) recovers q0 and
+    brings the error to the noise; the condition candidates leave the start state alone."""
+    from hybridhyst.discover.candidates import condition_candidates, start_candidates
+    from hybridhyst.discover.fitting import fit_candidate
+    from hybridhyst.physics.effects import Dahl, LinearStiffness, LuGre
+    from hybridhyst.physics.models import Constitutive
+
+    records, fit, sim, q0, noise = _clearance_start_records()
     scales = Scales.of(records)
     (cand,) = start_candidates(fit.model, scales)
     assert cand.name == "clearance.start" and cand.kind == "start" and cand.free == ["clearance.q0"]
@@ -91,6 +102,45 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
     many = Constitutive({"spring": LinearStiffness(k=1.0), "dahl": Dahl(sigma0=5.0, Fc=1.0),
                          "lugre": LuGre(sigma0=5.0, Fc=1.0, Fs=1.2, vs=0.1)}).double()
     assert [c.name for c in start_candidates(many, scales)] == ["dahl.start", "lugre.start"]
+
+
+def test_long_records_screen_a_candidates_starts_on_their_leading_part(float64, monkeypatch):
+    """``fitting.screened``: records holding at most ``SCREEN_SAMPLES`` samples are used as they are (every data set
+    of the beds and BRFD); longer ones are cut to the leading part of each, in proportion to its length, warm-up
+    kept. A candidate fitted on records three times the screen (``SCREEN_SAMPLES`` lowered for the test) runs its
+    many-row phases on the cut records and only its best ``keep`` rows on every sample, and ends where the fit
+    without the screen ends: the start state of the clearance, at the noise."""
+    import hybridhyst.discover.fitting as fitting
+    from hybridhyst.discover.candidates import start_candidates
+
+    records, fit, sim, q0, noise = _clearance_start_records(n_periods=3.0)  # 450 samples each
+    assert fitting.screened(records) is records  # below the default screen: untouched
+    part = fitting.screened(records, samples=300)
+    assert [len(r) for r in part] == [150, 150]
+    assert all(np.array_equal(p.y, r.y[:150]) and np.array_equal(p.x, r.x[:150]) for p, r in zip(part, records))
+    warm = [dataclasses.replace(records[0], warmup=200), records[1]]
+    assert [len(r) for r in fitting.screened(warm, samples=300)] == [202, 150]  # the warm-up and a sample scored
+
+    (cand,) = start_candidates(fit.model, Scales.of(records))
+    whole = fitting.fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
+    seen = []
+    lm = fitting.levenberg_marquardt
+
+    def spy(residuals, space, starts, **kw):
+        seen.append((residuals.__self__.n_samples, starts.reshape(-1, space.dim).shape[0]))
+        return lm(residuals, space, starts, **kw)
+
+    monkeypatch.setattr(fitting, "levenberg_marquardt", spy)
+    monkeypatch.setattr(fitting, "SCREEN_SAMPLES", 300)
+    cut = fitting.fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
+    screened_calls = [rows for n, rows in seen if n == 300]
+    full_calls = [rows for n, rows in seen if n == 900]
+    assert screened_calls and max(screened_calls) > 3  # every start on the cut records
+    assert full_calls and max(full_calls) <= 3  # the best three on every sample
+    assert len(screened_calls) + len(full_calls) == len(seen)
+    assert cut.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
+    assert cut.sse == pytest.approx(whole.sse, rel=1e-3)
+    assert math.sqrt(cut.sse / 900) < 1.2 * noise
 
 
 def test_the_start_state_of_an_effect_just_added_is_offered_at_once_and_its_refusal_is_said_as_such(float64):
