@@ -215,3 +215,17 @@ def test_bench_tests_quick_runs_the_test_command_in_an_empty_cache(tmp_path):
     assert f"{res['wall_s']:.0f} s wall" in stdout and "target 6 min: met" in stdout
     failed = {**res, "returncode": 1}
     assert "**not met**" in _script("bench_tests").markdown(failed)
+
+
+@pytest.mark.slow
+def test_bench_screen_quick_fits_one_candidate_both_ways_on_the_same_record(tmp_path):
+    res, stdout = _run("bench_screen.py", tmp_path)
+    bench = _script("bench_screen")
+    (row,) = res["rows"]
+    assert row["candidate"] == "bouc_wen" and row["samples"] == bench.QUICK_SAMPLES
+    assert row["screen_samples"] == bench.QUICK_SCREEN < row["samples"]  # the screen is active
+    s, w = row["screened"], row["whole"]
+    assert _positive(s["seconds"], w["seconds"]) and row["ratio"] == pytest.approx(w["seconds"] / s["seconds"])
+    assert row["rmse_ratio"] == pytest.approx(s["rmse"] / w["rmse"])
+    assert s["rmse"] < 0.1 * res["nominal_rmse"]  # the hysteretic term found, screened
+    assert bench.markdown(res) in stdout
