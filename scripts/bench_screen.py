@@ -17,8 +17,8 @@ the training RMSE each reaches and the sub-steps chosen.
 
     PYTHONPATH=. python scripts/bench_screen.py --json experiments/performance/bench_screen.json --write-readme
 
-``--quick``: the first 3000 samples of the record screened on 1000, the Bouc–Wen candidate only (a smoke run). A script, not a timed test:
-numbers depend on the machine load.
+``--quick``: the first 3000 samples of the record screened on 1000, the Bouc–Wen candidate only (a smoke
+run). A script, not a timed test: numbers depend on the machine load.
 """
 
 from __future__ import annotations
@@ -81,7 +81,6 @@ def _fit(cand, model, train, sim, screen: int):
 def compare(name: str, model, train, sim, screen: int) -> tuple[dict, object]:
     """The candidate ``name`` on ``model`` fitted screened on ``screen`` samples and whole, alternating after a first
     call each; the row and the screened fit."""
-    from hybridhyst.discover import fitting
     from hybridhyst.discover.candidates import Scales, effect_candidates
 
     (cand,) = effect_candidates(model, Scales.of(train, oscillator=True), [name])  # as the loop scales an oscillator

@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+import torch
 from test_discover import FAST, NOISE, _damper_records
 
 from hybridhyst.data import Record
@@ -109,7 +110,8 @@ def test_long_records_screen_a_candidates_starts_on_their_leading_part(float64, 
     of the beds and BRFD); longer ones are cut to the leading part of each, in proportion to its length, warm-up
     kept. A candidate fitted on records three times the screen (``SCREEN_SAMPLES`` lowered for the test) runs its
     many-row phases on the cut records and only its best ``keep`` rows on every sample, and ends where the fit
-    without the screen ends: the start state of the clearance, at the noise."""
+    without the screen ends: the start state of the clearance, at the noise. The rows that go on are the lowest on
+    every sample; where none can be simulated there, every start's first round is run on every sample."""
     import hybridhyst.discover.fitting as fitting
     from hybridhyst.discover.candidates import start_candidates
 
@@ -141,6 +143,21 @@ def test_long_records_screen_a_candidates_starts_on_their_leading_part(float64, 
     assert cut.coords["clearance.q0"] == pytest.approx(q0, rel=0.05)
     assert cut.sse == pytest.approx(whole.sse, rel=1e-3)
     assert math.sqrt(cut.sse / 900) < 1.2 * noise
+
+    # rows fitted on the leading part that cannot be simulated on every sample (an amplitude that grows within the
+    # record): the first round starts again on every sample, from every start
+    sse = fitting._sse
+
+    def unresolved(problem, X):
+        out = sse(problem, X)
+        return torch.full_like(out, math.inf) if problem.n_samples == 900 and X.shape[0] > 1 else out
+
+    seen.clear()
+    monkeypatch.setattr(fitting, "_sse", unresolved)
+    again = fitting.fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)
+    full_calls = [rows for n, rows in seen if n == 900]
+    assert max(full_calls) == max(screened_calls)  # every start, on every sample
+    assert again.sse == pytest.approx(whole.sse, rel=1e-3)
 
 
 def test_the_start_state_of_an_effect_just_added_is_offered_at_once_and_its_refusal_is_said_as_such(float64):

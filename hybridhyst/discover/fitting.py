@@ -153,10 +153,10 @@ def screened(train, samples: int | None = None):
     joint LM, which pick the ``keep`` starts that go on): ``train`` itself while it holds at most ``samples``
     (default ``SCREEN_SAMPLES``) samples, else the leading part of each record, each cut to its share of
     ``samples`` (its warm-up kept). The starts are told apart by their basins, which a part of the record shows
-    when it holds every frequency of the excitation (a full period of a multisine); the starts that go on are
-    fitted on every sample. The training records of every test bed case and of BRFD hold fewer (8004 at most), so
-    their fits are as before; the Bouc–Wen benchmark's hold five times as many (five periods of its multisine):
-    its discovery took 339 s warm, 161 s screened, with the same model to about 1e-9."""
+    when it holds every frequency and amplitude of the excitation (a full period of a multisine); the rows that go
+    on are chosen by their cost on every sample (``converged_lm``), which a part that lacks the larger amplitudes
+    can mislead less. The training records of every test bed case and of BRFD hold fewer (8004 at most), so their
+    fits are as before; the Bouc–Wen benchmark's hold five times as many (five periods of its multisine)."""
     samples = SCREEN_SAMPLES if samples is None else int(samples)
     total = sum(len(r) for r in train)
     if total <= samples:
@@ -192,12 +192,19 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
     ``keep`` lowest then continue (the rows are most of the cost: each accepted step costs a Jacobian per
     row). Halving the rows within the first round too was tried and lost the LuGre basin of the independent
     test bed's ``lugre`` case (held-out 1.20 × noise, Fc 1.84 for 0.4). With ``screen`` (the problem on
-    ``screened`` records), every start's first round is on it, and the ``keep`` lowest get a first round on
-    ``problem`` before the rounds go on."""
+    ``screened`` records), every start's first round is on it; its rows are then simulated once on ``problem`` and
+    the ``keep`` lowest there get a first round on it before the rounds go on. A leading part need not hold the
+    whole record's speeds (an amplitude that grows within a record): a row fitted there can be cheap on it and
+    unresolved on the rest, so the rows are chosen by their cost on every sample, and where none of them can be
+    simulated on every sample the first round starts again there from every start, as without a screen."""
     if screen is not None and starts.shape[0] > keep:
         first = levenberg_marquardt(screen.residuals, space, starts, iters=lm_steps, free=free, progress=False,
                                     jacobian_rows=screen.jacobian_rows, rtol=LM_RTOL)
-        starts = first.X[torch.argsort(first.costs)[:keep]]
+        sse = _sse(problem, first.X)
+        order = torch.argsort(sse)[:keep]
+        order = order[torch.isfinite(sse[order])]
+        if len(order):
+            starts = first.X[order]
     lm = levenberg_marquardt(problem.residuals, space, starts, iters=lm_steps, free=free, progress=False,
                             jacobian_rows=problem.jacobian_rows, rtol=LM_RTOL)
     for _ in range(rounds - 1):
