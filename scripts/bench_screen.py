@@ -81,6 +81,7 @@ def _fit(cand, model, train, sim, screen: int):
 def compare(name: str, model, train, sim, screen: int) -> tuple[dict, object]:
     """The candidate ``name`` on ``model`` fitted screened on ``screen`` samples and whole, alternating after a first
     call each; the row and the screened fit."""
+    from hybridhyst.discover import fitting
     from hybridhyst.discover.candidates import Scales, effect_candidates
 
     (cand,) = effect_candidates(model, Scales.of(train, oscillator=True), [name])  # as the loop scales an oscillator
@@ -92,7 +93,8 @@ def compare(name: str, model, train, sim, screen: int) -> tuple[dict, object]:
             fits[way], dt = _fit(cand, model, train, sim, ways[way])
             if k == 1:
                 times[way].append(dt)
-    row = {"candidate": name, "samples": n, "screen_samples": screen, "base_substeps": sim.substeps}
+    row = {"candidate": name, "samples": n, "screen_samples": screen, "base_substeps": sim.substeps,
+           "active": fitting.screened(train, screen) is not train}
     for way, fit in fits.items():
         row[way] = {"seconds": min(times[way]), "rmse": math.sqrt(fit.sse / n), "substeps": fit.substeps}
     row["ratio"] = row["whole"]["seconds"] / row["screened"]["seconds"]

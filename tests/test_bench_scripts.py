@@ -223,7 +223,7 @@ def test_bench_screen_quick_fits_one_candidate_both_ways_on_the_same_record(tmp_
     bench = _script("bench_screen")
     (row,) = res["rows"]
     assert row["candidate"] == "bouc_wen" and row["samples"] == bench.QUICK_SAMPLES
-    assert row["screen_samples"] == bench.QUICK_SCREEN < row["samples"]  # the screen is active
+    assert row["screen_samples"] == bench.QUICK_SCREEN < row["samples"] and row["active"]  # the screen cut it
     s, w = row["screened"], row["whole"]
     assert _positive(s["seconds"], w["seconds"]) and row["ratio"] == pytest.approx(w["seconds"] / s["seconds"])
     assert row["rmse_ratio"] == pytest.approx(s["rmse"] / w["rmse"])

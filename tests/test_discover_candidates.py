@@ -108,10 +108,11 @@ def test_a_start_state_is_a_candidate_and_is_recovered_from_data_that_start_away
 def test_long_records_screen_a_candidates_starts_on_their_leading_part(float64, monkeypatch):
     """``fitting.screened``: records holding at most ``SCREEN_SAMPLES`` samples are used as they are (every data set
     of the beds and BRFD); longer ones are cut to the leading part of each, in proportion to its length, warm-up
-    kept. A candidate fitted on records three times the screen (``SCREEN_SAMPLES`` lowered for the test) runs its
-    many-row phases on the cut records and only its best ``keep`` rows on every sample, and ends where the fit
-    without the screen ends: the start state of the clearance, at the noise. The rows that go on are the lowest on
-    every sample; where none can be simulated there, every start's first round is run on every sample."""
+    kept, where each part spans its record's range (not a part of an amplitude ramp or a frequency sweep). A
+    candidate fitted on records three times the screen (``SCREEN_SAMPLES`` lowered for the test) runs its many-row
+    phases on the cut records and only its best ``keep`` rows on every sample, and ends where the fit without the
+    screen ends: the start state of the clearance, at the noise. The rows that go on are the lowest on every
+    sample; where none can be simulated there, every start's first round is run on every sample."""
     import hybridhyst.discover.fitting as fitting
     from hybridhyst.discover.candidates import start_candidates
 
@@ -122,6 +123,10 @@ def test_long_records_screen_a_candidates_starts_on_their_leading_part(float64, 
     assert all(np.array_equal(p.y, r.y[:150]) and np.array_equal(p.x, r.x[:150]) for p, r in zip(part, records))
     warm = [dataclasses.replace(records[0], warmup=200), records[1]]
     assert [len(r) for r in fitting.screened(warm, samples=300)] == [202, 150]  # the warm-up and a sample scored
+    ramp = [dataclasses.replace(r, x=r.x * np.linspace(0.3, 1.0, len(r))) for r in records]
+    assert fitting.screened(ramp, samples=300) is ramp  # a leading part without the record's larger amplitudes
+    sweep = [dataclasses.replace(r, x=np.sin(2 * np.pi * (0.5 * r.t + 0.5 * r.t**2))) for r in records]
+    assert fitting.screened(sweep, samples=300) is sweep  # ... or without its higher speeds
 
     (cand,) = start_candidates(fit.model, Scales.of(records))
     whole = fitting.fit_candidate(cand, fit.model, records, sim.at(fit.substeps), 25, 10.0)

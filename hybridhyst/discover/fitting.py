@@ -18,6 +18,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing.reduction import ForkingPickler
 
+import numpy as np
 import torch
 
 from ..identify.identify import at_bounds
@@ -36,7 +37,8 @@ EDGE_PASSES = 3  # a fitted constant a candidate's fit leaves at an edge of its 
 EDGE_GAIN = 0.99  # ... and only while a pass lowers the cost by at least 1 % within its first EDGE_PROBE iterations
 EDGE_PROBE = 5
 LM_RTOL = 1e-6  # a row whose Gauss–Newton step gains less than this (relative) is converged and simulated no more
-SCREEN_SAMPLES = 8192  # a candidate's many-row phases see at most about this many samples (``screened``)
+SCREEN_SAMPLES = 8192  # a candidate's many-row phases see at most about this many samples (``screened``) ...
+SCREEN_RANGE = 0.9  # ... where that part of each record spans this share of its range in every channel
 
 
 @dataclass
@@ -152,16 +154,32 @@ def screened(train, samples: int | None = None):
     """The records a candidate's many-row phases fit on (the global search, the re-balance and the first round of
     joint LM, which pick the ``keep`` starts that go on): ``train`` itself while it holds at most ``samples``
     (default ``SCREEN_SAMPLES``) samples, else the leading part of each record, each cut to its share of
-    ``samples`` (its warm-up kept). The starts are told apart by their basins, which a part of the record shows
-    when it holds every frequency and amplitude of the excitation (a full period of a multisine); the rows that go
-    on are chosen by their cost on every sample (``converged_lm``), which a part that lacks the larger amplitudes
-    can mislead less. The training records of every test bed case and of BRFD hold fewer (8004 at most), so their
-    fits are as before; the Bouc–Wen benchmark's hold five times as many (five periods of its multisine)."""
+    ``samples`` (its warm-up kept), provided every part spans ``SCREEN_RANGE`` of its record's range (1st to 99th
+    percentile) in the input, its rate, the response and every control channel; else ``train`` itself. The starts
+    are told apart by their basins, which a part shows when it holds the amplitudes and speeds of the whole (a full
+    period of a multisine, steady cycles, a drift); a part of an amplitude ramp or a frequency sweep does not (a
+    LuGre basin chosen on the small, slow start of a ramp was the wrong one), and such records are fitted whole.
+    The training records of every test bed case and of BRFD hold fewer samples (8004 at most), so their fits are as
+    before; the Bouc–Wen benchmark's five times as many (five periods of its multisine)."""
     samples = SCREEN_SAMPLES if samples is None else int(samples)
     total = sum(len(r) for r in train)
     if total <= samples:
         return train
-    return [r.slice(0, max(r.warmup + 2, math.ceil(len(r) * samples / total))) for r in train]
+    parts = [r.slice(0, max(r.warmup + 2, math.ceil(len(r) * samples / total))) for r in train]
+    return parts if all(_spans(p, r) for p, r in zip(parts, train)) else train
+
+
+def _spans(part, record) -> bool:
+    """Whether ``part`` (a leading slice of ``record``) spans ``SCREEN_RANGE`` of the record's range in every
+    channel a fit reads or scores."""
+    def channels(r):
+        return [r.x, np.gradient(r.x, r.t), r.y, *r.controls.values()]
+
+    def span(a):
+        lo, hi = np.percentile(a, [1, 99])
+        return hi - lo
+
+    return all(span(a) >= SCREEN_RANGE * span(b) for a, b in zip(channels(part), channels(record)))
 
 
 def _sse(problem: RecordsProblem, X: torch.Tensor) -> torch.Tensor:
