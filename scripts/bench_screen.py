@@ -87,16 +87,14 @@ def compare(name: str, model, train, sim, screen: int) -> tuple[dict, object]:
     (cand,) = effect_candidates(model, Scales.of(train, oscillator=True), [name])  # as the loop scales an oscillator
     n = sum(len(r) for r in train)
     ways = {"screened": screen, "whole": WHOLE}
-    fits, times = {}, {way: [] for way in ways}
+    fits, seconds = {}, {}
     for k in range(2):  # the first round builds the loops; the second is timed, in the other order
         for way in (ways if k == 0 else list(ways)[::-1]):
-            fits[way], dt = _fit(cand, model, train, sim, ways[way])
-            if k == 1:
-                times[way].append(dt)
+            fits[way], seconds[way] = _fit(cand, model, train, sim, ways[way])
     row = {"candidate": name, "samples": n, "screen_samples": screen, "base_substeps": sim.substeps,
            "active": fitting.screened(train, screen) is not train}
     for way, fit in fits.items():
-        row[way] = {"seconds": min(times[way]), "rmse": math.sqrt(fit.sse / n), "substeps": fit.substeps}
+        row[way] = {"seconds": seconds[way], "rmse": math.sqrt(fit.sse / n), "substeps": fit.substeps}
     row["ratio"] = row["whole"]["seconds"] / row["screened"]["seconds"]
     row["rmse_ratio"] = row["screened"]["rmse"] / row["whole"]["rmse"]
     return row, fits["screened"]

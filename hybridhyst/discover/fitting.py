@@ -210,12 +210,13 @@ def converged_lm(problem: RecordsProblem, space: SearchSpace, starts: torch.Tens
     ``keep`` lowest then continue (the rows are most of the cost: each accepted step costs a Jacobian per
     row). Halving the rows within the first round too was tried and lost the LuGre basin of the independent
     test bed's ``lugre`` case (held-out 1.20 × noise, Fc 1.84 for 0.4). With ``screen`` (the problem on
-    ``screened`` records), every start's first round is on it; its rows are then simulated once on ``problem`` and
-    the ``keep`` lowest there get a first round on it before the rounds go on. A leading part need not hold the
-    whole record's speeds (an amplitude that grows within a record): a row fitted there can be cheap on it and
-    unresolved on the rest, so the rows are chosen by their cost on every sample, and where none of them can be
-    simulated on every sample the first round starts again there from every start, as without a screen."""
-    if screen is not None and starts.shape[0] > keep:
+    ``screened`` records; None or ``problem`` itself: no screen), every start's first round is on it; its rows are
+    then simulated once on ``problem`` and the ``keep`` lowest there get a first round on it before the rounds go
+    on. A leading part need not hold the whole record's speeds (an amplitude that grows within a record): a row
+    fitted there can be cheap on it and unresolved on the rest, so the rows are chosen by their cost on every
+    sample, and where none of them can be simulated on every sample the first round starts again there from every
+    start, as without a screen."""
+    if screen is not None and screen is not problem and starts.shape[0] > keep:
         first = levenberg_marquardt(screen.residuals, space, starts, iters=lm_steps, free=free, progress=False,
                                     jacobian_rows=screen.jacobian_rows, rtol=LM_RTOL)
         sse = _sse(problem, first.X)
@@ -293,7 +294,7 @@ def fit_candidate(candidate, model, train, sim, lm_steps: int, box_factor: float
         balanced = levenberg_marquardt(screen.residuals, space, starts, iters=max(lm_steps // 2, 1), free=old,
                                        progress=False, jacobian_rows=screen.jacobian_rows, rtol=LM_RTOL).X
         starts = torch.cat([starts, balanced])
-    lm = converged_lm(problem, space, starts, lm_steps, screen=None if screen is problem else screen)
+    lm = converged_lm(problem, space, starts, lm_steps, screen=screen)
     if not math.isfinite(lm.cost):
         return None
     space, x = _followed(space, candidate, train, sim, lm, lm_steps, box_factor)
