@@ -260,14 +260,40 @@ def test_prepared_inputs_give_simulate_and_its_jacobian_for_any_leading_rows(flo
         assert not bool(dy2[..., ~asked].any())
 
 
-def test_jacobian_refuses_what_it_does_not_cover():
-    model = Constitutive({"k": EFFECTS["linear_stiffness"](k=1.0), "d": EFFECTS["time_delay"](tau=0.01)}).double()
-    t = torch.arange(20) * 1e-3
+@pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
+def test_jacobian_of_an_input_delay(structure, float64):
+    """A delay moves the input itself: its column is the derivative through the linearly interpolated input (held
+    before t0, its rates zero there), carried through a state and into the output like any other column; against
+    the reference loop's adjoint, which differentiates the same interpolation. Two delays add (both columns)."""
+    effects = {"delay": EFFECTS["time_delay"](tau=0.013), "dahl": EFFECTS["dahl"](sigma0=30.0, Fc=1.0),
+               "viscous": EFFECTS["viscous"](c=0.4), "late": EFFECTS["time_delay"](tau=0.004),
+               "spring": EFFECTS["linear_stiffness"](k=2.0)}
+    model = Constitutive(effects) if structure == "constitutive" else DrivenOscillator(effects, mass=0.05)
+    assert jacobian_covers(model)
+    u, t = _every_effect_input()
+    _assert_jacobian(model.double(), torch.stack([u, 0.8 * u]), t)
+
+
+def test_jacobian_of_a_delay_with_a_control_channel(float64):
+    """The delay reads the input late, not the control channels (they are not delayed): the column of a delay in
+    a model whose parameter follows a control is still the reference's."""
+    from hybridhyst.physics.parameters import Linear
+
+    model = Constitutive({"delay": EFFECTS["time_delay"](tau=0.009),
+                          "viscous": EFFECTS["viscous"](c=Linear(0.5, 0.3, condition="volts"))}).double()
+    u, t = _every_effect_input()
+    volts = (1.0 + 0.5 * torch.sin(2 * math.pi * 0.7 * t)).expand(2, -1)
     with torch.no_grad():
-        P = model.evaluate(None, 1)
-    assert not jacobian_covers(model)
-    with pytest.raises(ValueError, match="input delay"):
-        simulate_jacobian(model, torch.sin(t)[None], t, values=P)
+        P = model.evaluate({"volts": volts}, 2)
+    values = {k: {n: v.detach().clone().requires_grad_(True) for n, v in d.items()} for k, d in P.items()}
+    U = torch.stack([u, 0.8 * u])
+    y, dy, keys = simulate_jacobian(model, U, t, values=values, conditions={"volts": volts}, substeps=2)
+    ref = simulate(model, U, t=t, values=values, conditions={"volts": volts}, substeps=2)
+    assert ((y - ref.detach()).abs().max() / ref.abs().max()).item() < RTOL
+    w = torch.randn(ref.shape, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
+    (g,) = torch.autograd.grad((ref * w).sum(), [values["delay"]["tau"]])
+    got = (w[..., None] * dy).sum(dim=(1, 2))[:, keys.index(("delay", "tau"))]
+    assert torch.allclose(got, g, rtol=10 * RTOL, atol=1e-12)
 
 
 # -- the C build: errors, cache, threads -------------------------------------------------------------------------
@@ -597,12 +623,10 @@ def test_prebuild_builds_several_models_side_by_side(tmp_path, monkeypatch, floa
     models = [Constitutive({"viscous": EFFECTS["viscous"](c=0.3), name: EFFECTS[name](**EFFECT_VALUES[name])})
               for name in ("dahl", "coulomb", "stribeck", "time_delay")]
     prebuild_models(models)
-    # the loops a candidate's fit runs: the values and the forward sensitivities (no adjoint; none with a delay,
-    # which the sensitivities do not cover)
-    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 7
+    # the loops a candidate's fit runs: the values and the forward sensitivities (no adjoint), a delay's too
+    assert len(list((tmp_path / "fast").glob("hh_*.so"))) == 8
     assert len(build._MODULES) == 4
-    assert sorted(tuple(sorted(m._fns)) for m in build._MODULES.values()) == [("forward",)] + [("forward",
-                                                                                               "tangent")] * 3
+    assert sorted(tuple(sorted(m._fns)) for m in build._MODULES.values()) == [("forward", "tangent")] * 4
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here (the GPU machine runs it)")

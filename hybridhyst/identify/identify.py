@@ -157,7 +157,7 @@ def _fisher(problem, x, mse, noise_sd, jacobian) -> FisherReport:
         jacobian = "exact" if exact else "autograd" if problem.n_samples * len(problem.records) <= 512 else "fd"
     if jacobian == "exact":
         if exact is None:
-            raise ValueError("jacobian='exact' needs the fast backend and a model without an input delay or networks")
+            raise ValueError("jacobian='exact' needs the fast backend and a model without networks")
         J = exact(x[None], torch.ones(D, dtype=torch.bool))[1][0]
     else:
         J = output_jacobian(problem.predict, x, method=jacobian)

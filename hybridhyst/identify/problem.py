@@ -93,7 +93,7 @@ class RecordsProblem:
         coordinates, exact: the compiled loop's forward sensitivities w.r.t. the parameter values
         (``simulate_jacobian``, one pass where finite differences take one simulation per coordinate) times
         the parameter functions' derivatives w.r.t. the coordinates (reverse mode). None where the
-        sensitivities do not cover the model (the reference backend, an input delay, networks): then
+        sensitivities do not cover the model (the reference backend, networks): then
         Levenberg–Marquardt takes finite differences."""
         if self.sim.backend != "fast" or not jacobian_covers(self.space.model):
             return None

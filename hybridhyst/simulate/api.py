@@ -237,8 +237,6 @@ class Prepared:
         model, t, controls, dtype = self.model, self.t, self.controls, self.dtype
         B, device = self.batch, self.device
         P = self._values(values)
-        if _delayed(model):
-            raise ValueError("simulate_jacobian does not cover an input delay (the input itself moves with it)")
         eq = compiled(model, controls)[0]
         keys = list(eq.param_keys)
         first = _first(self.cond, controls)
@@ -271,22 +269,39 @@ class Prepared:
             _, jac = row_jacobian(start_state, x)
             if jac.shape[1]:
                 ds0[..., stateful] = jac
-        y, dy = tangent_fast(model, self.U, t, P, s0, ds0, method=self.sim.method or "rk4",
-                             substeps=self.sim.substeps, controls=controls, want=want)
+        U, dU, dth = self.U, None, None
+        tau = model.input_delay(P)
+        if tau is not None:  # the input read late, and its derivatives w.r.t. the delay's parameters asked for
+            moved = [j for j, (k, _) in enumerate(keys)
+                     if asked[j] and k in model.effects and model.effects[k].delays_input]
+            rates, drates = delayed(self.rates, t, tau, derivative=bool(moved)) if moved else (
+                delayed(self.rates, t, tau), None)
+            U, _ = with_controls(rates, self.cond)
+            if moved:  # the control channels are not delayed: their derivatives are 0
+                dU = torch.cat([drates, drates.new_zeros(*drates.shape[:2], U.shape[2] - drates.shape[2])], dim=2)
+
+                def delay(x: torch.Tensor) -> list[torch.Tensor]:
+                    rows = {k: dict(P[k]) for k in {keys[j][0] for j in moved}}
+                    for i, j in enumerate(moved):
+                        rows[keys[j][0]][keys[j][1]] = x[:, i]
+                    return [model.input_delay({**P, **rows}).expand(B)]
+
+                x = torch.stack([P[keys[j][0]][keys[j][1]].expand(B) for j in moved], dim=1)
+                _, jac = row_jacobian(delay, x)  # (B, 1, moved): the delay's derivative w.r.t. each
+                dth = U.new_zeros(B, n)
+                dth[:, moved] = jac[:, 0].to(dtype)
+        y, dy = tangent_fast(model, U, t, P, s0, ds0, method=self.sim.method or "rk4",
+                             substeps=self.sim.substeps, controls=controls, want=want, dU=dU, dth=dth)
         return y, (dy if weights else dy[..., : len(keys)]), keys
 
 
 def jacobian_covers(model) -> bool:
     """Whether identification's exact Jacobians (``simulate_jacobian`` w.r.t. the parameter values alone) cover
-    ``model``: no effect reads the input with a delay (``simulate_jacobian`` refuses it) and none is a network
-    (whose weights and condition inputs are no coordinates of identification: it takes differences there)."""
+    ``model``: no effect is a network (whose weights and condition inputs are no coordinates of identification: it
+    takes differences there)."""
     from ..physics.effects.neural import NeuralEffect
 
-    return not _delayed(model) and not any(isinstance(e, NeuralEffect) for e in model.effects.values())
-
-
-def _delayed(model) -> bool:
-    return any(e.delays_input for e in model.effects.values())
+    return not any(isinstance(e, NeuralEffect) for e in model.effects.values())
 
 
 def row_jacobian(fn: Callable[[torch.Tensor], list[torch.Tensor]], x: torch.Tensor,
@@ -324,8 +339,9 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
 
     The Jacobian of ``simulate(model, inputs, t, values=values, backend="fast")`` w.r.t. each row's parameter
     values: what a Gauss–Newton or Levenberg–Marquardt fit needs, at the cost of a few simulations where
-    finite differences take one per parameter. Exact for the discrete map (the same numbers as the adjoint).
-    Models with an input delay are not covered (``jacobian_covers``; a ValueError says so).
+    finite differences take one per parameter. Exact for the discrete map (the same numbers as the adjoint); an
+    input delay's column too: the input read late is the linear interpolation of the samples, differentiated with
+    them (their slope; 0 where the input is held before t0).
 
     ``weights``: with networks inside the model (``NeuralEffect``), ``dy`` goes on past the parameter values with
     the derivatives w.r.t. every network weight, in the order of ``fast.function.weight_columns`` (what a

@@ -50,9 +50,10 @@ def gradient(f: torch.Tensor, t: torch.Tensor, edge_order: int = 2) -> torch.Ten
     return torch.cat([first[:, None], inner, last[:, None]], dim=1)
 
 
-def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Tensor:
+def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor, slope: bool = False):
     """Linear interpolation of ``U (batch, time, C)`` sampled at ``t`` (``(time,)`` or ``(batch, time)``) at
-    query times ``tq`` (``(batch, Q)``), held at the ends."""
+    query times ``tq`` (``(batch, Q)``), held at the ends. ``slope``: also its derivative w.r.t. ``tq``, the
+    interval's slope (0 where held; autograd's at an interval's ends), as ``(values, slopes)``."""
     B, T, C = U.shape
     if t.ndim == 1:  # one grid for every row: searched and indexed as it is, not copied per row
         idx = (torch.searchsorted(t, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
@@ -61,23 +62,34 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor) -> torch.Ten
         grid = t.expand(B, -1).contiguous()
         idx = (torch.searchsorted(grid, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
         t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
-    w = ((tq - t0) / (t1 - t0)).clamp(0.0, 1.0)[..., None]
+    r = (tq - t0) / (t1 - t0)
+    w = r.clamp(0.0, 1.0)[..., None]
     flat, first = U.reshape(B * T, C), (torch.arange(B, device=U.device) * T)[:, None]  # row b's samples at b·T
 
     def at(i):
         return flat.index_select(0, (i + first).reshape(-1)).reshape(B, -1, C)
 
-    return at(idx) * (1 - w) + at(idx + 1) * w
+    a, b = at(idx), at(idx + 1)
+    out = a * (1 - w) + b * w
+    if not slope:
+        return out
+    inside = ((r >= 0.0) & (r <= 1.0)).to(U.dtype) / (t1 - t0)
+    return out, (b - a) * inside[..., None]
 
 
-def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
-    """The input read ``tau (batch,)`` earlier: U(t − τ), held at its first value before t0."""
+def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor, derivative: bool = False):
+    """The input read ``tau (batch,)`` earlier: U(t − τ), held at its first value before t0. ``derivative``: also
+    its derivative w.r.t. τ (the forward sensitivities of a delay), as ``(input, derivative)``."""
     grid = t.expand(U.shape[0], -1)
     tq = grid - tau[:, None]
-    out = interpolate(U, t, tq)
+    out = interpolate(U, t, tq, slope=derivative)
+    out, slope = out if derivative else (out, None)
     # before t0 the input is held at rest: its value persists, its rates are zero
     before = tq < (t[:1] if t.ndim == 1 else grid[:, :1])
     out[..., 1:].masked_fill_(before[..., None], 0.0)
+    if derivative:
+        slope[..., 1:].masked_fill_(before[..., None], 0.0)
+        return out, -slope
     return out
 
 

@@ -205,16 +205,19 @@ def _after_fork() -> None:
 os.register_at_fork(after_in_child=_after_fork)
 
 
-def _pointer(a: np.ndarray) -> int:
-    return a.ctypes.data
+def _pointer(a: np.ndarray | None) -> int | None:
+    """The array's data address; None (a NULL pointer) for an array not given."""
+    return None if a is None else a.ctypes.data
 
 
 def _check(name: str, arrays: dict, B: int, T: int, NT: int, S: int, P: int, n_out: int, NI: int) -> None:
     """The loops index raw memory: every array float64, C-contiguous and of the shape they assume."""
     shapes = {"U": (B, T, NI), "h": (B, T - 1), "th": (B, NT), "s0": (B, S), "states": (B, T, S), "y": (B, T, n_out),
               "gy": (B, T, n_out), "gS": (B, T, S), "gth": (B, NT), "gU": (B, T, NI), "gs0": (B, S), "ds0": (B, S, NT),
-              "want": (NT,), "dy": (B, T, n_out, NT)}
+              "want": (NT,), "dy": (B, T, n_out, NT), "dU": (B, T, NI), "dth": (B, NT)}
     for key, a in arrays.items():
+        if a is None:  # an optional array not given (the loop takes NULL)
+            continue
         if a.dtype != np.float64 or not a.flags.c_contiguous or a.shape != shapes.get(key, a.shape):
             raise ValueError(f"compiled {name}: {key} must be a C-contiguous float64 array of shape "
                              f"{shapes.get(key)}, got {a.dtype} {a.shape}")
@@ -244,7 +247,7 @@ class Compiled:
             if fn is None:
                 fn = getattr(ctypes.CDLL(str(_library(self.eq, self.key, name))), f"hh_{name}")
                 # (b0, b1, T, NT, arrays..., nst, c, A, bw, sub, results...)
-                n_before, n_after = {"forward": (4, 2), "backward": (6, 3), "tangent": (6, 2)}[name]
+                n_before, n_after = {"forward": (4, 2), "backward": (6, 3), "tangent": (8, 2)}[name]
                 L, V = ctypes.c_long, ctypes.c_void_p
                 fn.argtypes = [L] * 4 + [V] * n_before + [L] + [V] * 3 + [L] + [V] * n_after
                 fn.restype = None
@@ -294,8 +297,13 @@ class Compiled:
         self._run("backward", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "states": states, "gy": gy, "gS": gS},
                   c.shape[0], [c, A, bw], sub, {"gth": gth, "gU": gU, "gs0": gs0}, th.shape[1])
 
-    def tangent(self, U, h, th, s0, ds0, want, c, A, bw, sub, y, dy):
+    def tangent(self, U, h, th, s0, ds0, want, c, A, bw, sub, y, dy, dU=None, dth=None):
         """Outputs y (B,T,O) and their derivatives dy (B,T,O,NT) w.r.t. the columns of th (the parameters, then
-        the networks' weights) asked for (want (NT,), nonzero; the others are 0), given ds0 (B,S,NT)."""
-        self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0, "want": want},
+        the networks' weights) asked for (want (NT,), nonzero; the others are 0), given ds0 (B,S,NT). Where the input
+        moves with some columns (a delay): dU (B,T,NI) its derivative w.r.t. each row's delay and dth (B,NT) the
+        delay's w.r.t. each column (both None: it moves with none)."""
+        if (dU is None) != (dth is None):
+            raise ValueError("compiled tangent: give both dU and dth, or neither")
+        self._run("tangent", U.shape[0], U.shape[1], {"U": U, "h": h, "th": th, "s0": s0, "ds0": ds0, "want": want,
+                                                      "dU": dU, "dth": dth},
                   c.shape[0], [c, A, bw], sub, {"y": y, "dy": dy}, th.shape[1])

@@ -55,11 +55,9 @@ def compiled(model, controls: tuple[str, ...] = ()):
 def prebuild_models(models, controls: tuple[str, ...] = ()) -> None:
     """Build the compiled loops a fit runs of several models side by side (one compiler process each, as many at
     once as there are cores), before they are simulated one after another: a discovery step's candidates (with the
-    control channels ``controls`` of the records they will simulate). The loops: the values, and the forward
-    sensitivities where they cover the model (not where an effect reads the input with a delay)."""
-    prebuild([(build_equations(m, tuple(controls)),
-               ("forward",) if any(e.delays_input for e in m.effects.values()) else ("forward", "tangent"))
-              for m in models])
+    control channels ``controls`` of the records they will simulate). The loops: the values and the forward
+    sensitivities."""
+    prebuild([(build_equations(m, tuple(controls)), ("forward", "tangent")) for m in models])
 
 
 def _theta(eq, P, model, B: int, like: torch.Tensor) -> torch.Tensor:
@@ -161,13 +159,15 @@ def simulate_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torc
 
 def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch.Tensor, dstate0: torch.Tensor,
                  method: str = "rk4", substeps: int = 1, controls: tuple[str, ...] = (),
-                 want: torch.Tensor | None = None):
+                 want: torch.Tensor | None = None, dU: torch.Tensor | None = None, dth: torch.Tensor | None = None):
     """Outputs ``(batch, time, output_dim)`` and their derivatives ``(batch, time, output_dim, n)`` w.r.t. the
     n columns of the compiled loop's ``th``: the parameter values of the equations in the order of
     ``compiled(model)[0].param_keys``, then every network's weights (``weight_columns``) -- forward sensitivities
     of the compiled loop, one pass for all n where finite differences take n simulations. ``dstate0 (batch,
     state_dim, n)``: the initial state's derivatives. ``want (n,)`` booleans: the columns asked for (None: all);
-    the loop carries no other through the states, and their derivatives are 0. Not differentiable itself."""
+    the loop carries no other through the states, and their derivatives are 0. Where the input ``U`` moves with
+    some columns (a delay): ``dU`` (like ``U``) its derivative w.r.t. each row's delay, ``dth (batch, n)`` the
+    delay's derivative w.r.t. each column; those columns then take the inputs' share. Not differentiable itself."""
     if int(substeps) < 1:
         raise ValueError(f"substeps must be >= 1, got {substeps}")
     eq, module = compiled(model, controls)
@@ -178,7 +178,9 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     y = np.empty((B, T, model.output_dim))
     dy = np.empty((B, T, model.output_dim, th.shape[1]))
     asked = np.ones(th.shape[1]) if want is None else _numpy(want)
-    module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), asked, c, A, bw, int(substeps), y, dy)
+    moves = None if dU is None else (_numpy(dU), _numpy(dth))
+    module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), asked, c, A, bw, int(substeps), y, dy,
+                   *(moves or ()))
     return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
             torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
 

@@ -97,12 +97,13 @@ typedef void (*vjp_kernel)(const double *, const double *, const double *, const
                            double *, double *);
 
 /* n values v of a kernel (the right-hand side, n = S; the outputs, n = O) and their whole Jacobians w.r.t. the
-   state, vs (n, S), and w.r.t. all nt columns of th, vt (n, nt): jac's (every network's output held) plus, with
-   networks, their share row by row (one back-propagation through the layers per value, vjp with a unit weight). */
+   state, vs (n, S), w.r.t. all nt columns of th, vt (n, nt), and w.r.t. the inputs, vi (n, NI): jac's (every
+   network's output held) plus, with networks, their share row by row (one back-propagation through the layers per
+   value, vjp with a unit weight). */
 static inline void jac_full(jac_kernel jac, vjp_kernel vjp, int n, const double *Y, const double *in,
-                            const double *th, int nt, double *v, double *vs, double *vt, double *buf) {
-    double VT[DIM(n * P)], VI[DIM(n * NI)], w[DIM(n)], gin[DIM(NI)];
-    jac(Y, in, th, v, vs, VT, VI, buf);
+                            const double *th, int nt, double *v, double *vs, double *vt, double *vi, double *buf) {
+    double VT[DIM(n * P)], w[DIM(n)], gin[DIM(NI)];
+    jac(Y, in, th, v, vs, VT, vi, buf);
     for (int i = 0; i < n; i++)
         for (int p = 0; p < nt; p++) vt[i * nt + p] = p < P ? VT[i * P + p] : 0.0;
     if (NETS)
@@ -110,18 +111,33 @@ static inline void jac_full(jac_kernel jac, vjp_kernel vjp, int n, const double 
             for (int r = 0; r < n; r++) w[r] = r == i ? 1.0 : 0.0;
             for (int q = 0; q < NI; q++) gin[q] = 0.0;
             vjp(Y, in, th, w, vs + i * S, vt + i * nt, gin, buf);
+            for (int q = 0; q < NI; q++) vi[i * NI + q] += gin[q];
         }
+}
+
+/* Where the input itself moves with some columns of th (a delay: the structure reads u(t - tau)): add to each of
+   the n values' column derivatives vt (n, nt) its inputs' share, vi (n, NI) times the input's derivative din (NI)
+   times each column's factor dth (nt; 0: the input does not move with that column). */
+static inline void input_share(int n, int nt, const double *vi, const double *din, const double *dth, double *vt) {
+    for (int i = 0; i < n; i++) {
+        double a = 0.0;
+        for (int q = 0; q < NI; q++) a += vi[i * NI + q] * din[q];
+        if (a != 0.0)
+            for (int p = 0; p < nt; p++)
+                if (dth[p] != 0.0) vt[i * nt + p] += a * dth[p];
+    }
 }
 
 /* The columns of th (of nt) a row's state tangent carries, into cols; their number. Of the columns asked for
    (want[p] != 0): a parameter that reaches the state (LIVE), every weight where the right-hand side reads a
-   network, and any column the start state's derivatives ds0 (S, nt) hold. Any other column's state tangent is
-   zero (its derivative reaches the outputs directly) or not asked for, and the loop leaves it out. */
-static int state_columns(int nt, const double *ds0, const double *want, int *cols) {
+   network, a column the input moves with (dth[p] != 0, dth NULL: none) and any column the start state's
+   derivatives ds0 (S, nt) hold. Any other column's state tangent is zero (its derivative reaches the outputs
+   directly) or not asked for, and the loop leaves it out. */
+static int state_columns(int nt, const double *ds0, const double *want, const double *dth, int *cols) {
     int n = 0;
     for (int p = 0; p < nt; p++) {
         if (want[p] == 0.0) continue;
-        int live = p < P ? LIVE[p] : RHS_NETS;
+        int live = (p < P ? LIVE[p] : RHS_NETS) || (dth && dth[p] != 0.0);
         for (int i = 0; i < S && !live; i++) live = ds0[i * nt + p] != 0.0;
         if (live) cols[n++] = p;
     }
@@ -144,15 +160,17 @@ static inline void chain_row(double *row, const double *direct, const int *cols,
    parameters, then the networks' weights; nt = P without networks; a column not asked for is 0) as forward
    sensitivities: the exact derivative of the same discrete map as forward_row, given the initial state's ds0
    (S, nt). The state's tangent carries only the nl columns asked for that reach it (state_columns); an output's
-   derivative is its direct one plus the state's share in those. */
+   derivative is its direct one plus the state's share in those. Where the input moves with some columns (dU
+   (T, NI) its derivative w.r.t. the row's delay, dth (nt) the delay's w.r.t. each column; both NULL: none), their
+   derivatives take the inputs' share too (input_share), at every stage and sample. */
 static void tangent_row(int T, int nt, const double *U, const double *h, const double *th, const double *s0,
-                        const double *ds0, const double *want, int nst, const double *c, const double *A,
-                        const double *bw, int sub, double *y, double *dy) {
+                        const double *ds0, const double *want, const double *dU, const double *dth, int nst,
+                        const double *c, const double *A, const double *bw, int sub, double *y, double *dy) {
     const int s1 = DIM(S), n1 = DIM(nt);
-    double K[nst * s1], Y[s1], FS[s1 * s1], g[DIM(O)], gs[DIM(O) * s1], buf[NB];
-    double st[s1], lo[s1], hi[s1], fl[s1], dlo[DIM(S * P)], dhi[DIM(S * P)], in[NI];
+    double K[nst * s1], Y[s1], FS[s1 * s1], g[DIM(O)], gs[DIM(O) * s1], buf[NB], FI[s1 * NI], GI[DIM(O) * NI];
+    double st[s1], lo[s1], hi[s1], fl[s1], dlo[DIM(S * P)], dhi[DIM(S * P)], in[NI], din[NI];
     int *cols = malloc(sizeof(int) * n1);
-    const int nl = state_columns(nt, ds0, want, cols), l1 = DIM(nl);
+    const int nl = state_columns(nt, ds0, want, dth, cols), l1 = DIM(nl);
     double *dK = malloc(sizeof(double) * nst * s1 * l1), *dY = malloc(sizeof(double) * s1 * l1);
     double *sig = malloc(sizeof(double) * s1 * l1); /* d(state)/d(th[cols]) (S, nl) */
     double *FT = malloc(sizeof(double) * s1 * n1), *gt = malloc(sizeof(double) * DIM(O) * n1);
@@ -163,7 +181,8 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
         for (int q = 0; q < nl; q++) sig[i * nl + q] = ds0[i * nt + cols[q]];
     if (HAS_BOUNDS) bounds(st, ZERO_IN, th, lo, hi, dlo, dhi);
     for (int k = 0; k < T; k++) {
-        jac_full(out_jac, out_net_vjp, O, st, U + k * NI, th, nt, g, gs, gt, buf);
+        jac_full(out_jac, out_net_vjp, O, st, U + k * NI, th, nt, g, gs, gt, GI, buf);
+        if (dU) input_share(O, nt, GI, dU + k * NI, dth, gt);
         for (int o = 0; o < O; o++) {
             double *row = dy + (k * O + o) * nt;
             y[k * O + o] = g[o];
@@ -191,7 +210,11 @@ static void tangent_row(int T, int nt, const double *U, const double *h, const d
                     }
                 }
                 stage_input(U, k, (m + c[j]) / sub, in);
-                jac_full(rhs_jac, rhs_net_vjp, S, Y, in, th, nt, K + j * s1, FS, FT, buf);
+                jac_full(rhs_jac, rhs_net_vjp, S, Y, in, th, nt, K + j * s1, FS, FT, FI, buf);
+                if (dU) {
+                    stage_input(dU, k, (m + c[j]) / sub, din); /* the input's derivative, interpolated like it */
+                    input_share(S, nt, FI, din, dth, FT);
+                }
                 for (int i = 0; i < S; i++)
                     chain_row(dK + (j * s1 + i) * l1, FT + i * nt, cols, FS + i * S, dY, nl);
             }
@@ -365,12 +388,13 @@ void hh_backward(long b0, long b1, long T, long NT, const double *U, const doubl
 
 #ifdef HH_TANGENT
 void hh_tangent(long b0, long b1, long T, long NT, const double *U, const double *h, const double *th,
-                const double *s0, const double *ds0, const double *want, long nst, const double *c, const double *A,
-                const double *bw, long sub, double *y, double *dy) {
+                const double *s0, const double *ds0, const double *want, const double *dU, const double *dth,
+                long nst, const double *c, const double *A, const double *bw, long sub, double *y, double *dy) {
     for (long b = b0; b < b1; b++) {
         double *thx = with_hoisted(th + b * NT, NT);
-        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), thx, s0 + b * S, ds0 + b * S * NT, want, nst, c, A, bw,
-                    sub, y + b * T * O, dy + b * T * O * NT);
+        tangent_row(T, NT, U + b * T * NI, h + b * (T - 1), thx, s0 + b * S, ds0 + b * S * NT, want,
+                    dU ? dU + b * T * NI : NULL, dth ? dth + b * NT : NULL, nst, c, A, bw, sub, y + b * T * O,
+                    dy + b * T * O * NT);
         free(thx);
     }
 }
