@@ -21,7 +21,8 @@ Problems: ``seed001``, the modified Bouc–Wen + viscous + Coulomb law of seed 0
 the pressure (21 coordinates) on the bundled 1:3 loops at 0.02, 0.05 and 0.08 MPa (0.2 Nm noise); ``brfd``, the
 structure discovery names for the measured BRFD damper (built from ``experiments/brfd_discovery/discovery.json``:
 today clearance + LuGre, 10 coordinates) on its seven 36 lb training tests (thinned as discovery
-thins them).
+thins them); ``delay``, seed 001's law read 4 ms late (a ``time_delay``: 22 coordinates, the input itself moves
+with one) on seed 001's loops.
 
     PYTHONPATH=. python scripts/bench_jacobian.py --json bench_jacobian.json --write-readme
 
@@ -68,7 +69,17 @@ def brfd_problem():
     return brfd_tension.build_structure(report, nominal), list(split.train)
 
 
-PROBLEMS = {"seed001": seed001_problem, "brfd": brfd_problem}
+def delay_problem():
+    """(model, records): seed 001's law read 4 ms late (a ``time_delay`` added), on seed 001's three loops: the
+    input moves with a coordinate (exact sensitivities since the delay's column was added to the compiled loop;
+    differences before)."""
+    from hybridhyst.physics.effects import EFFECTS
+
+    model, records = seed001_problem()
+    return model.with_effects({**model.effects, "delay": EFFECTS["time_delay"](tau=0.004)}).double(), records
+
+
+PROBLEMS = {"seed001": seed001_problem, "brfd": brfd_problem, "delay": delay_problem}
 
 
 def timed(fn, repeats: int) -> float:
@@ -215,7 +226,7 @@ def main(argv=None) -> dict:
     args = parse_args(argv)
     torch.set_default_dtype(torch.float64)
     torch.set_num_threads(1)
-    cases = [("seed001", 1)] if args.quick else [(p, s) for p in PROBLEMS for s in (1, 4)]
+    cases = [("seed001", 1), ("delay", 1)] if args.quick else [(p, s) for p in PROBLEMS for s in (1, 4)]
     print("(6) Jacobians: exact forward sensitivities vs finite differences", flush=True)
     rows = [bench_problem(p, s, 1 if args.quick else 5) for p, s in cases]
     result = {"command": command_line(), "quick": bool(args.quick), "machine": machine_info(), "rows": rows,
