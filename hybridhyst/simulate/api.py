@@ -274,8 +274,8 @@ class Prepared:
         if tau is not None:  # the input read late, and its derivatives w.r.t. the delay's parameters asked for
             moved = [j for j, (k, _) in enumerate(keys)
                      if asked[j] and k in model.effects and model.effects[k].delays_input]
-            rates, drates = delayed(self.rates, t, tau, derivative=bool(moved)) if moved else (
-                delayed(self.rates, t, tau), None)
+            rates, drates = delayed(self.rates, t, tau, derivative=True) if moved else (delayed(self.rates, t, tau),
+                                                                                         None)
             U, _ = with_controls(rates, self.cond)
             if moved:  # the control channels are not delayed: their derivatives are 0
                 dU = torch.cat([drates, drates.new_zeros(*drates.shape[:2], U.shape[2] - drates.shape[2])], dim=2)
