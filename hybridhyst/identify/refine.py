@@ -192,29 +192,21 @@ def _finite_rows(a: torch.Tensor) -> torch.Tensor:
     return ok
 
 
-def _normal_equations(J: torch.Tensor, r: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """``JᵀJ (K, F, F)``, ``Jᵀr (K, F)`` and whether each row's residuals and Jacobian are finite ``(K,)``, from the
-    Jacobians ``(K, M, F)`` and residuals ``(K, M)``: all a step needs, taken once per Jacobian (a row's system is
-    kept until its Jacobian changes; the Jacobians themselves are not). A row that is not finite (a diverged
-    simulation) gets zeros."""
-    ok = _finite_rows(J) & _finite_rows(r)
-    if not bool(ok.all()):
-        J = torch.where(ok[:, None, None], J, torch.zeros_like(J))
-        r = torch.where(ok[:, None], r, torch.zeros_like(r))
-    Jt = J.transpose(1, 2)
-    return Jt @ J, (Jt @ r[..., None])[..., 0], ok
-
-
-def _lm_step(JtJ: torch.Tensor, g: torch.Tensor, ok: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
-    """Damped Gauss–Newton steps ``(K, D)`` from each row's normal equations (``_normal_equations``); a row whose
-    residuals or Jacobian are not finite (``ok`` False) or whose system is singular gets a zero step instead of
-    stopping the batch."""
-    K, D = g.shape
-    eye = torch.eye(D, dtype=JtJ.dtype).expand(K, D, D)
-    A = torch.where(ok[:, None, None], marquardt_system(JtJ, lam), eye)
+def _lm_step(J: torch.Tensor, r: torch.Tensor, lam: torch.Tensor) -> torch.Tensor:
+    """Damped Gauss–Newton steps ``(K, D)``; a row whose residuals or Jacobian are not finite (a diverged
+    simulation) or whose system is singular gets a zero step instead of stopping the batch."""
+    K, _, D = J.shape
+    bad = ~(_finite_rows(J) & _finite_rows(r))
+    if bool(bad.any()):
+        J = torch.where(bad[:, None, None], torch.zeros_like(J), J)
+        r = torch.where(bad[:, None], torch.zeros_like(r), r)
+    JtJ = J.transpose(1, 2) @ J
+    g = (J.transpose(1, 2) @ r[..., None])[..., 0]
+    eye = torch.eye(D, dtype=J.dtype).expand(K, D, D)
+    A = torch.where(bad[:, None, None], eye, marquardt_system(JtJ, lam))
     step, info = torch.linalg.solve_ex(A, -g[..., None])
     step = step[..., 0]
-    return torch.where(((info != 0) | ~ok)[:, None] | ~torch.isfinite(step), torch.zeros_like(step), step)
+    return torch.where(((info != 0) | bad)[:, None] | ~torch.isfinite(step), torch.zeros_like(step), step)
 
 
 def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], space: Box, starts: torch.Tensor, *,
@@ -258,8 +250,6 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
         J = _lm_jacobian(residual_rows, space, W, r, h, free)
     else:
         r, J, differenced = _lm_exact_or_fd(jacobian_rows, residual_rows, space, W, free, h)
-    JtJ, g, ok_rows = _normal_equations(J, r)
-    del J
     cost = r.square().mean(dim=1).nan_to_num(nan=math.inf)
     active = torch.ones(K, dtype=torch.bool)  # rows not yet converged (see rtol)
     history, evals = [float(cost.min())], K * (F + 1 if jacobian_rows is None else 1)
@@ -272,9 +262,8 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             rows = torch.nonzero(active).reshape(-1)
             if rows.numel() == 0:
                 break
-            every = rows.numel() == K  # no copies of the systems while every row is active
-            step = (_lm_step(JtJ, g, ok_rows, lam) if every
-                    else _lm_step(JtJ[rows], g[rows], ok_rows[rows], lam[rows]))
+            every = rows.numel() == K  # no copies of the Jacobians while every row is active
+            step = _lm_step(J if every else J[rows], r if every else r[rows], lam if every else lam[rows])
             if F < D:
                 step = torch.zeros(rows.numel(), D, dtype=W.dtype).index_copy_(1, free_index, step)
             r_new = _lm_residuals(residual_rows, space, W[rows] + step)
@@ -285,14 +274,12 @@ def levenberg_marquardt(residual_rows: Callable[[torch.Tensor], torch.Tensor], s
             if bool(ok.all()) and rows.numel() == K:  # every row accepted: the new arrays replace the old ones
                 W, r, cost = W + step, r_new, new
                 J, n = jacobians(W, r)
-                JtJ, g, ok_rows = _normal_equations(J, r)
                 evals += n
             elif bool(ok.any()):  # Jacobians only where the step was accepted
                 acc = rows[ok]
                 W[acc] = W[acc] + step[ok]
                 r[acc], cost[acc] = r_new[ok], new[ok]
-                J, n = jacobians(W[acc], r[acc])
-                JtJ[acc], g[acc], ok_rows[acc] = _normal_equations(J, r[acc])
+                J[acc], n = jacobians(W[acc], r[acc])
                 evals += n
             # converged rows: a negligible gain from a nearly undamped (Gauss–Newton) step, or a damping only
             # refusals reach
