@@ -252,44 +252,43 @@ class Prepared:
         asked = [needed is None or key in needed for key in keys]
         want = torch.tensor(asked + [weights] * (n - len(keys)), dtype=torch.float64)
         ds0 = s0.new_zeros(B, s0.shape[1], n)
+
+        def reverse(cols: list[int], fn: Callable[[dict], list[torch.Tensor]]) -> torch.Tensor:
+            """``(B, outputs, len(cols))``: the derivatives of ``fn(values)`` (a list of ``(B,)`` tensors, each row
+            reading its own values) w.r.t. the parameter values ``keys[cols]``, by reverse mode (``row_jacobian``)."""
+            def of(x: torch.Tensor) -> list[torch.Tensor]:
+                rows = {k: dict(P[k]) for k in {keys[j][0] for j in cols}}
+                for i, j in enumerate(cols):
+                    rows[keys[j][0]][keys[j][1]] = x[:, i]
+                return fn({**P, **rows})
+
+            return row_jacobian(of, torch.stack([P[keys[j][0]][keys[j][1]].expand(B) for j in cols], dim=1))[1]
+
+        def of_effects(has: Callable) -> list[int]:
+            """The columns asked for of the parameters of the effects for which ``has(effect)``."""
+            return [j for j, (k, _) in enumerate(keys) if asked[j] and k in model.effects and has(model.effects[k])]
+
         # the initial state's derivatives w.r.t. the parameters of the effects with a state (``Model.initial_state``
         # reads no other): reverse mode, one pass per state component, where the start depends on them at all
-        stateful = [j for j, (k, _) in enumerate(keys)
-                    if asked[j] and k in model.effects and model.effects[k].state_dim]
+        stateful = of_effects(lambda e: e.state_dim)
         if stateful and s0.shape[1] and not given:
-            def start_state(x: torch.Tensor) -> list[torch.Tensor]:
-                rows = {k: dict(P[k]) for k in {keys[j][0] for j in stateful}}
-                for i, j in enumerate(stateful):
-                    k, name = keys[j]
-                    rows[k][name] = x[:, i]
-                s = model.initial_state({**P, **rows}, B, controls=first, base=base)
+            def start_state(Q: dict) -> list[torch.Tensor]:
+                s = model.initial_state(Q, B, controls=first, base=base)
                 return list(s.unbind(1)) if s.requires_grad else []
 
-            x = torch.stack([P[keys[j][0]][keys[j][1]].expand(B) for j in stateful], dim=1)
-            _, jac = row_jacobian(start_state, x)
+            jac = reverse(stateful, start_state)
             if jac.shape[1]:
                 ds0[..., stateful] = jac
         U, dU, dth = self.U, None, None
         tau = model.input_delay(P)
         if tau is not None:  # the input read late, and its derivatives w.r.t. the delay's parameters asked for
-            moved = [j for j, (k, _) in enumerate(keys)
-                     if asked[j] and k in model.effects and model.effects[k].delays_input]
-            rates, drates = delayed(self.rates, t, tau, derivative=True) if moved else (delayed(self.rates, t, tau),
-                                                                                         None)
+            rates, drates = delayed(self.rates, t, tau, derivative=True)
             U, _ = with_controls(rates, self.cond)
+            moved = of_effects(lambda e: e.delays_input)
             if moved:  # the control channels are not delayed: their derivatives are 0
                 dU = torch.cat([drates, drates.new_zeros(*drates.shape[:2], U.shape[2] - drates.shape[2])], dim=2)
-
-                def delay(x: torch.Tensor) -> list[torch.Tensor]:
-                    rows = {k: dict(P[k]) for k in {keys[j][0] for j in moved}}
-                    for i, j in enumerate(moved):
-                        rows[keys[j][0]][keys[j][1]] = x[:, i]
-                    return [model.input_delay({**P, **rows}).expand(B)]
-
-                x = torch.stack([P[keys[j][0]][keys[j][1]].expand(B) for j in moved], dim=1)
-                _, jac = row_jacobian(delay, x)  # (B, 1, moved): the delay's derivative w.r.t. each
                 dth = U.new_zeros(B, n)
-                dth[:, moved] = jac[:, 0].to(dtype)
+                dth[:, moved] = reverse(moved, lambda Q: [model.input_delay(Q).expand(B)])[:, 0].to(dtype)
         y, dy = tangent_fast(model, U, t, P, s0, ds0, method=self.sim.method or "rk4",
                              substeps=self.sim.substeps, controls=controls, want=want, dU=dU, dth=dth)
         return y, (dy if weights else dy[..., : len(keys)]), keys

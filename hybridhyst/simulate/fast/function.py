@@ -178,9 +178,8 @@ def tangent_fast(model, U: torch.Tensor, t: torch.Tensor, P: dict, state0: torch
     y = np.empty((B, T, model.output_dim))
     dy = np.empty((B, T, model.output_dim, th.shape[1]))
     asked = np.ones(th.shape[1]) if want is None else _numpy(want)
-    moves = None if dU is None else (_numpy(dU), _numpy(dth))
     module.tangent(_numpy(U), _numpy(h), th, _numpy(state0), _numpy(dstate0), asked, c, A, bw, int(substeps), y, dy,
-                   *(moves or ()))
+                   dU=None if dU is None else _numpy(dU), dth=None if dth is None else _numpy(dth))
     return (torch.from_numpy(y).to(dtype=U.dtype, device=U.device),
             torch.from_numpy(dy).to(dtype=U.dtype, device=U.device))
 
