@@ -26,6 +26,22 @@ def test_diagnostics_measure_structure_and_whiteness():
     assert Scales(F=2.0, x=0.5, v=4.0, u=0.5).of_unit("F*t/x") == pytest.approx(2.0 * (0.5 / 4.0) / 0.5)
 
 
+def test_the_diagnostics_read_the_scored_samples_only():
+    """A record's warm-up (simulated from rest, not scored) holds the settling transient: a structured residual there
+    moves nothing the diagnostics report."""
+    import dataclasses
+
+    rng = np.random.default_rng(1)
+    records = make_records(None, noise_sd=NOISE).records
+    preds = [r.y - NOISE * rng.standard_normal(len(r)) for r in records]
+    warm = [dataclasses.replace(r, warmup=len(r) // 4) for r in records]
+    settling = [p + np.where(np.arange(len(p)) < len(p) // 4, 50 * NOISE * r.x, 0.0) for p, r in zip(preds, records)]
+    d = diagnose(warm, settling, NOISE)
+    scored = np.concatenate([(r.y - p)[len(r) // 4:] for r, p in zip(records, preds)])
+    assert d["rmse"] == pytest.approx(float(np.sqrt(np.mean(scored**2))))
+    assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
+
+
 def test_a_structure_whose_sign_changes_with_the_condition_is_still_seen():
     """A missing trend: the residual is (level − mean level) × a function of the loop phase, so pooled over the
     levels its mean in every phase bin is 0 while within each level it is a function of the phase; η² is

@@ -147,3 +147,35 @@ def test_time_delay_shifts_a_sine():
     F = respond(Constitutive([TimeDelay(tau=tau), LinearStiffness(k=1.0)]), x[None], t=t)[0]
     expected = torch.where(t >= tau, torch.sin(w * (t - tau)), torch.zeros_like(t))
     assert float((F - expected).abs().max()) < 1e-5  # linear interpolation error (w dt)^2 / 8
+
+
+def test_a_delay_is_continuous_in_tau_for_a_record_that_starts_in_motion():
+    """Before t0 the delayed input holds its first sample, rates included: as τ crosses a whole number of samples
+    the response moves by O(ε), not by c·v(t0) (rates zeroed before t0 made the cost a sawtooth in τ and pulled
+    fits to whole samples)."""
+    t, x = sine(1.0, 1.0, 0.5, 1e-3)  # starts at x = 0 at full speed 2π
+    model = lambda tau: Constitutive([TimeDelay(tau=tau), Viscous(c=1.0), LinearStiffness(k=3.0)])  # noqa: E731
+    for m in (1, 7):
+        below, above = (respond(model(m * 1e-3 + e), x[None], t=t)[0] for e in (-1e-9, 1e-9))
+        assert float((below - above).abs().max()) < 1e-4
+
+
+def test_identify_finds_a_delay_between_samples_on_records_that_start_in_motion():
+    """Loops of F = c·ẋ(t − τ) + k·x(t − τ) evaluated exactly at t − τ (the motion continues before t0, which the
+    model cannot know), τ = 7.3 ms at 1 kHz, white noise: the fit lands between the samples, not on one."""
+    from hybridhyst.data import Record
+    from hybridhyst.identify import identify
+
+    rng = np.random.default_rng(3)
+    tau, c, k, dt = 7.3e-3, 2.0, 3.0, 1e-3
+    records = []
+    for i, (a, f) in enumerate([(1.0, 2.0), (0.6, 5.0), (1.4, 1.0)]):
+        t = np.arange(0.0, 1.0, dt)
+        w, s = 2 * np.pi * f, t - tau
+        y = c * a * w * np.cos(w * s) + k * a * np.sin(w * s) + 0.05 * rng.standard_normal(len(t))
+        records.append(Record(name=f"r{i}", t=t, x=a * np.sin(w * t), y=y))
+    model = Constitutive([TimeDelay(tau=1e-3), Viscous(c=1.0), LinearStiffness(k=1.0)])
+    res = identify(model, records, progress=False, seed=0)
+    assert res.x["time_delay.tau"] == pytest.approx(tau, abs=0.1e-3)
+    assert abs(res.x["time_delay.tau"] / dt - round(res.x["time_delay.tau"] / dt)) > 0.05  # not pulled to a sample
+    assert res.x["viscous.c"] == pytest.approx(c, rel=0.02) and res.x["linear_stiffness.k"] == pytest.approx(k, rel=0.02)

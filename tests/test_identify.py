@@ -4,6 +4,7 @@ doubling; the search space's boxes and values: ``tests/test_identify_space.py``;
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -459,3 +460,34 @@ def test_a_re_centred_pass_is_kept_where_it_gains_or_finds_the_optimum_and_undon
     res = identify(m, records, recentre=3, **opts)
     assert res.recentred == 0 and res.cost == first.cost and res.x == first.x
     assert float(m.effects["coulomb"].params["Fc"].value) == pytest.approx(first.x["coulomb.Fc"], rel=1e-12)
+
+
+def test_warm_up_samples_are_simulated_but_not_scored(dahl_data):
+    """A record's ``warmup`` samples (``Record``: simulated, not scored) leave every least-squares quantity
+    untouched, whatever they hold; records of one length with different warm-ups are batched together."""
+    clean = dahl_data[0]
+    spoiled = clean.y.copy()
+    spoiled[:40] += 100.0  # nonsense in the first 40 samples
+    records = [dataclasses.replace(clean, name="a", y=spoiled, warmup=40),
+               dataclasses.replace(clean, name="b", y=clean.y + 0.01, warmup=0)]
+    problem = _problem(records)
+    same = _problem([dataclasses.replace(records[0], y=clean.y), records[1]])  # the warm-up holding the truth
+    X = problem.space.initial()[None].repeat(2, 1)
+    X[1, 0] *= 1.3
+    assert problem.n_samples == 2 * len(clean) - 40
+    full = problem.predict_groups(X)[0]  # (2, 2, T): every sample simulated
+    y = torch.as_tensor(np.stack([spoiled, clean.y + 0.01]))
+    mse = torch.stack([(full[:, 0, 40:] - y[0, 40:]).square().mean(1), (full[:, 1] - y[1]).square().mean(1)], 1)
+    assert torch.allclose(problem.record_mse(X), mse) and torch.allclose(same.record_mse(X), mse)
+    sse = (full[:, 0, 40:] - y[0, 40:]).square().sum(1) + (full[:, 1] - y[1]).square().sum(1)
+    assert torch.allclose(problem.cost(X), sse / problem.n_samples) and torch.allclose(same.cost(X), problem.cost(X))
+    res = problem.residuals(X)
+    assert res.shape == (2, problem.n_samples) and torch.allclose(res, same.residuals(X))
+    assert torch.allclose(res[:, :len(clean) - 40], full[:, 0, 40:] - y[0, 40:])
+    r, J = problem.jacobian_rows(X, torch.ones(problem.space.dim, dtype=torch.bool))
+    assert torch.allclose(r, res) and J.shape == (2, problem.n_samples, problem.space.dim)
+    h = 1e-6 * X[0, 0]
+    step = X[:1].clone()
+    step[0, 0] += h
+    fd = (problem.residuals(step) - problem.residuals(X[:1]))[0] / h
+    assert torch.allclose(J[0, :, 0], fd, rtol=1e-4, atol=1e-6)

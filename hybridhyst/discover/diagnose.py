@@ -72,7 +72,8 @@ def _within(feature: np.ndarray, r: np.ndarray, groups: list[np.ndarray]) -> flo
 
 
 def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
-    """Diagnostics of the residual (measured − predicted) over ``records`` (lists of the same length).
+    """Diagnostics of the residual (measured − predicted) over ``records`` (lists of the same length), each
+    record's samples after its ``warmup``.
 
     Returns
     -------
@@ -88,10 +89,11 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     conds: dict[str, list] = {}
     acs = []
     for rec, pred in zip(records, predictions):
-        r = np.asarray(rec.y, float) - np.asarray(pred, float)
+        w = rec.warmup  # simulated, not scored: a model started from rest settles there
+        r = (np.asarray(rec.y, float) - np.asarray(pred, float))[w:]
         r_all.append(r)
         for k, v in features(rec.t, rec.x, {c: rec.controls[c] for c in controls}).items():
-            feats[k].append(v)
+            feats[k].append(v[w:])
         for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))

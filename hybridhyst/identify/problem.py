@@ -25,7 +25,8 @@ class RecordsProblem:
 
     Parameters
     ----------
-    space : the model's search space; records : the data; input_channels : channels driving the model.
+    space : the model's search space; records : the data (each record's first ``warmup`` samples simulated, not
+        scored); input_channels : channels driving the model.
     settings : how the model is simulated (default ``SimulationSettings()``: compiled, RK4, one sub-step);
         ``method``, ``substeps``, ``backend`` where given override it.
     """
@@ -41,8 +42,11 @@ class RecordsProblem:
         # call (rates are taken on the grid as given, as before)
         self.groups = [(b.index, b.t[0] if bool((b.t == b.t[:1]).all()) else b.t, with_rates(b.inputs, b.t), b.y,
                         b.conditions) for b in record_batches(self.records, input_channels, dtype)]
-        self.n_samples = sum(len(r) for r in self.records)
-        self.y_flat = torch.cat([g[3].reshape(-1) for g in self.groups])
+        # each record's first ``warmup`` samples are simulated, not scored: per group, the flat indices (record-major)
+        # of its scored samples, None where every sample is scored (no copy)
+        self._scored = [_scored_samples([self.records[j].warmup for j in g[0]], g[3].shape[1]) for g in self.groups]
+        self.n_samples = sum(len(r) - r.warmup for r in self.records)  # the scored samples
+        self.y_flat = torch.cat([_select(g[3].reshape(1, -1), keep)[0] for g, keep in zip(self.groups, self._scored)])
         self._prepared: dict[int, Prepared] = {}  # per group: its inputs for the largest population yet
 
     def _batch(self, X: torch.Tensor, i: int) -> tuple[Prepared, dict]:
@@ -73,18 +77,25 @@ class RecordsProblem:
         return out
 
     def predict(self, X: torch.Tensor) -> torch.Tensor:
-        """All responses flattened, ``(N, M)`` with M the total number of samples."""
-        return torch.cat([p.reshape(p.shape[0], -1) for p in self.predict_groups(X)], dim=1)
+        """The scored responses flattened, ``(N, M)`` with M the number of scored samples (``n_samples``: each
+        record's samples after its ``warmup``)."""
+        return torch.cat([_select(p.reshape(p.shape[0], -1), keep) for p, keep in
+                          zip(self.predict_groups(X), self._scored)], dim=1)
 
     def record_mse(self, X: torch.Tensor) -> torch.Tensor:
-        """Mean squared error ``(N, records)``, columns in the records' order."""
+        """Mean squared error over each record's scored samples ``(N, records)``, columns in the records' order."""
         out = torch.empty(X.shape[0], len(self.records), dtype=torch.float64)
-        for (idx, _, _, Y, _), pred in zip(self.groups, self.predict_groups(X)):
-            out[:, idx] = (pred - Y[None]).square().mean(dim=2).to(torch.float64)
+        for (idx, _, _, Y, _), pred, keep in zip(self.groups, self.predict_groups(X), self._scored):
+            sq = (pred - Y[None]).square()
+            if keep is None:
+                out[:, idx] = sq.mean(dim=2).to(torch.float64)
+            else:
+                scored = torch.arange(Y.shape[1]) >= torch.tensor([self.records[j].warmup for j in idx])[:, None]
+                out[:, idx] = (sq.where(scored, 0.0).sum(dim=2) / scored.sum(dim=1)).to(torch.float64)
         return out
 
     def residuals(self, X: torch.Tensor) -> torch.Tensor:
-        """Model minus measured response, all samples flattened, ``(N, M)``."""
+        """Model minus measured response at the scored samples, flattened, ``(N, M)``."""
         return self.predict(X) - self.y_flat.to(X.dtype)[None]
 
     @property
@@ -154,18 +165,31 @@ class RecordsProblem:
             needed = {(k, n) for k, d in dvalues.items() for n, v in d.items() if bool(v.ne(0).any())}
             y, dy, keys = prepared.jacobian(values, needed=needed)
             dvdx = torch.stack([dvalues[k][n] for k, n in keys], dim=1)  # (N·R, parameters, F)
-            res.append((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1))
-            jac.append(_chain(dy[..., 0, :], dvdx).reshape(N, -1, len(idx)))
+            res.append(_select((y[..., 0].reshape(N, R, -1) - Y[None]).reshape(N, -1), self._scored[i]))
+            jac.append(_select(_chain(dy[..., 0, :], dvdx).reshape(N, -1, len(idx)), self._scored[i]))
         if len(self.groups) == 1:  # no copy of the Jacobian to join the groups
             return res[0].to(torch.float64), jac[0].to(torch.float64)
         return torch.cat(res, dim=1).to(torch.float64), torch.cat(jac, dim=1).to(torch.float64)
 
     def cost(self, X: torch.Tensor) -> torch.Tensor:
-        """Pooled MSE over every sample of every record, ``(N,)`` (differentiable)."""
+        """Pooled MSE over the scored samples of every record, ``(N,)`` (differentiable)."""
         sse = 0.0
-        for (_, _, _, Y, _), pred in zip(self.groups, self.predict_groups(X)):
-            sse = sse + (pred - Y[None]).square().sum(dim=(1, 2))
+        for (_, _, _, Y, _), pred, keep in zip(self.groups, self.predict_groups(X), self._scored):
+            sse = sse + _select((pred - Y[None]).reshape(pred.shape[0], -1), keep).square().sum(dim=1)
         return sse / self.n_samples
+
+
+def _scored_samples(warmups: list[int], T: int) -> torch.Tensor | None:
+    """Flat indices (record-major, ``len(warmups)`` records of ``T`` samples) of the samples after each record's
+    warm-up; None where no record has one."""
+    if not any(warmups):
+        return None
+    return torch.cat([torch.arange(r * T + w, (r + 1) * T) for r, w in enumerate(warmups)])
+
+
+def _select(x: torch.Tensor, keep: torch.Tensor | None) -> torch.Tensor:
+    """``x (N, M, ...)``'s samples ``keep`` along dimension 1 (all of them, uncopied, for None)."""
+    return x if keep is None else x.index_select(1, keep.to(x.device))
 
 
 def _chain(dy: torch.Tensor, dvdx: torch.Tensor) -> torch.Tensor:

@@ -78,19 +78,15 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor, slope: bool 
 
 
 def delayed(U: torch.Tensor, t: torch.Tensor, tau: torch.Tensor, derivative: bool = False):
-    """The input read ``tau (batch,)`` earlier: U(t − τ), held at its first value before t0. ``derivative``: also
-    its derivative w.r.t. τ (the forward sensitivities of a delay), as ``(input, derivative)``."""
-    grid = t.expand(U.shape[0], -1)
-    tq = grid - tau[:, None]
-    out = interpolate(U, t, tq, slope=derivative)
-    out, slope = out if derivative else (out, None)
-    # before t0 the input is held at rest: its value persists, its rates are zero
-    before = tq < (t[:1] if t.ndim == 1 else grid[:, :1])
-    out[..., 1:].masked_fill_(before[..., None], 0.0)
-    if derivative:
-        slope[..., 1:].masked_fill_(before[..., None], 0.0)
-        return out, -slope
-    return out
+    """The input read ``tau (batch,)`` earlier: U(t − τ), every channel (value and rates) held at its first sample
+    before t0, so that the delayed input, and a fit's cost, is continuous in τ for a record that starts in motion
+    as for one that starts at rest. ``derivative``: also its derivative w.r.t. τ (the forward sensitivities of a
+    delay; 0 where held), as ``(input, derivative)``."""
+    tq = t.expand(U.shape[0], -1) - tau[:, None]
+    if not derivative:
+        return interpolate(U, t, tq)
+    out, slope = interpolate(U, t, tq, slope=True)
+    return out, -slope
 
 
 def input_sample(v: torch.Tensor, controls: tuple[str, ...] = ()) -> InputSample:

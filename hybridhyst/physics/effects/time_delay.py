@@ -12,8 +12,9 @@ class TimeDelay(Effect):
     """The structure reads its input τ late: u(t − τ) instead of u(t).
 
     Applies to the whole model (every effect and the drive), wherever the effect is listed; several
-    delays add. The simulator interpolates the input linearly between samples and holds its first value
-    before t0, so τ is differentiable and need not be a multiple of the sample interval. Typical use:
+    delays add. The simulator interpolates the input linearly between samples and holds its first sample
+    (value and rates) before t0, so τ is continuous, differentiable inside each sample interval and need not be a
+    multiple of the sample interval, whether the record starts at rest or in motion. Typical use:
     actuator/amplifier or sensor latency, misaligned channels.
 
     Units: tau [t] (≥ 0, neutral 0; stored unconstrained, a negative value would read the future).
