@@ -262,8 +262,8 @@ def test_prepared_inputs_give_simulate_and_its_jacobian_for_any_leading_rows(flo
 
 @pytest.mark.parametrize("structure", ["constitutive", "oscillator"])
 def test_jacobian_of_an_input_delay(structure, float64):
-    """A delay moves the input itself: its column is the derivative through the linearly interpolated input (held
-    before t0, its rates zero there), carried through a state and into the output like any other column; against
+    """A delay moves the input itself: its column is the derivative through the linearly interpolated input (every
+    channel held before t0), carried through a state and into the output like any other column; against
     the reference loop's adjoint, which differentiates the same interpolation. Two delays add (both columns)."""
     effects = {"delay": EFFECTS["time_delay"](tau=0.013), "dahl": EFFECTS["dahl"](sigma0=30.0, Fc=1.0),
                "viscous": EFFECTS["viscous"](c=0.4), "late": EFFECTS["time_delay"](tau=0.004),
@@ -272,6 +272,33 @@ def test_jacobian_of_an_input_delay(structure, float64):
     assert jacobian_covers(model)
     u, t = _every_effect_input()
     _assert_jacobian(model.double(), torch.stack([u, 0.8 * u]), t)
+
+
+@pytest.mark.parametrize("samples", [0, 3])
+def test_a_delay_on_a_whole_sample_takes_the_slope_a_longer_delay_reads(samples, float64):
+    """On a whole number of samples (τ = 0 is the delay candidate's neutral start) the interpolated input has a
+    kink: the column is the derivative for τ growing (the interval before each sample, 0 where the held start is
+    read), the direction a fit from there can move, not the other side's."""
+    dt = 2.0**-8  # whole samples exact in binary: t − τ lands on a sample, not an ulp beside it
+    t = torch.arange(300) * dt
+    u = torch.sin(2 * math.pi * 1.3 * t) + 0.3 * torch.sin(2 * math.pi * 3.1 * t + 1.0)
+    U = torch.stack([u, 0.8 * u])
+
+    def model(tau):
+        return Constitutive({"delay": EFFECTS["time_delay"](tau=tau), "viscous": EFFECTS["viscous"](c=0.4),
+                             "spring": EFFECTS["linear_stiffness"](k=2.0)}).double()
+
+    m = model(samples * dt)
+    with torch.no_grad():
+        values = m.evaluate(None, 2)
+    _, dy, keys = simulate_jacobian(m, U, t, values=values)
+    column = dy[..., 0, keys.index(("delay", "tau"))]
+    h = 1e-7 * dt
+    y0, longer, shorter = (simulate(model(max(samples * dt + e, 0.0)), U, t=t)[..., 0].detach() for e in (0.0, h, -h))
+    right = (longer - y0) / h
+    assert float((column - right).abs().max()) < 1e-4 * float(right.abs().max())
+    if samples:  # the other side differs: the kink is real
+        assert float((column - (y0 - shorter) / h).abs().max()) > 1e-2 * float(right.abs().max())
 
 
 def test_jacobian_of_a_delay_with_a_control_channel(float64):

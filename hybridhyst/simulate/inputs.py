@@ -52,18 +52,21 @@ def gradient(f: torch.Tensor, t: torch.Tensor, edge_order: int = 2) -> torch.Ten
 
 def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor, slope: bool = False):
     """Linear interpolation of ``U (batch, time, C)`` sampled at ``t`` (``(time,)`` or ``(batch, time)``) at
-    query times ``tq`` (``(batch, Q)``), held at the ends. ``slope``: also its derivative w.r.t. ``tq``, the
-    interval's slope (0 where held; autograd's at an interval's ends), as ``(values, slopes)``."""
+    query times ``tq`` (``(batch, Q)``), held at the ends. ``slope``: also its derivative w.r.t. ``tq``, as
+    ``(values, slopes)``: the slope of the interval (t_k, t_k+1] the query lies in, so at a sample the one of the
+    interval before it (the side a delay that grows reads; autograd's the same), 0 where held (at t0 too)."""
     B, T, C = U.shape
+    # the interval t_k < tq <= t_k+1 (left-open: a query on a sample lies in the interval before it)
     if t.ndim == 1:  # one grid for every row: searched and indexed as it is, not copied per row
-        idx = (torch.searchsorted(t, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
+        idx = (torch.searchsorted(t, tq.detach().contiguous()) - 1).clamp(0, T - 2)
         t0, t1 = (t.index_select(0, i.reshape(-1)).reshape(i.shape) for i in (idx, idx + 1))
     else:
         grid = t.expand(B, -1).contiguous()
-        idx = (torch.searchsorted(grid, tq.detach().contiguous(), right=True) - 1).clamp(0, T - 2)
+        idx = (torch.searchsorted(grid, tq.detach().contiguous()) - 1).clamp(0, T - 2)
         t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
     r = (tq - t0) / (t1 - t0)
-    w = r.clamp(0.0, 1.0)[..., None]
+    # r <= 0 only before t1 of the first interval's start (held): no derivative there, for autograd too
+    w = torch.where(r > 0.0, r, torch.zeros_like(r)).clamp(max=1.0)[..., None]
     flat, first = U.reshape(B * T, C), (torch.arange(B, device=U.device) * T)[:, None]  # row b's samples at b·T
 
     def at(i):
@@ -73,7 +76,7 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor, slope: bool 
     out = a * (1 - w) + b * w
     if not slope:
         return out
-    inside = ((r >= 0.0) & (r <= 1.0)).to(U.dtype) / (t1 - t0)
+    inside = ((r > 0.0) & (r <= 1.0)).to(U.dtype) / (t1 - t0)
     return out, (b - a) * inside[..., None]
 
 
