@@ -340,7 +340,7 @@ def simulate_jacobian(model, inputs, t=None, *, values: dict, dt: float | None =
     values: what a Gauss–Newton or Levenberg–Marquardt fit needs, at the cost of a few simulations where
     finite differences take one per parameter. Exact for the discrete map (the same numbers as the adjoint); an
     input delay's column too: the input read late is the linear interpolation of the samples, differentiated with
-    them (their slope; 0 where the input is held before t0).
+    them (their slope; 0 where the input is held before t0; on a whole sample, the slope a longer delay reads).
 
     ``weights``: with networks inside the model (``NeuralEffect``), ``dy`` goes on past the parameter values with
     the derivatives w.r.t. every network weight, in the order of ``fast.function.weight_columns`` (what a
