@@ -66,6 +66,20 @@ def test_csv_with_record_column_round_trip(tmp_path):
     np.testing.assert_allclose(back["r2"].extra["v"], records["r2"].extra["v"])
 
 
+def test_a_table_can_give_every_record_a_warm_up(tmp_path):
+    """``warmup``: leading samples of every record simulated, not scored (a periodic record extended by its own
+    end); one longer than a record names it."""
+    records = _set()
+    records.to_frame().to_csv(tmp_path / "all.csv", index=False)
+    back = read_table(tmp_path / "all.csv", record="record", conditions=["pressure_mpa", "mixture"], warmup=5)
+    assert [r.warmup for r in back] == [5] * len(records)
+    _same(records, back)
+    shortest = min(records, key=len)
+    with pytest.raises(ValueError, match=f"{shortest.name}.*warmup must be in"):
+        read_table(tmp_path / "all.csv", record="record", conditions=["pressure_mpa", "mixture"],
+                   warmup=len(shortest))
+
+
 def test_glob_of_files_one_record_each(tmp_path):
     records = _set()
     for r in records:
@@ -265,6 +279,10 @@ def test_warmup_is_validated_and_follows_slices():
     assert rec.slice(step=2).warmup == 5 and rec.slice(4).warmup == 6 and rec.slice(20).warmup == 0
     with pytest.raises(ValueError, match="warmup must be in"):
         Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=100)
+    with pytest.raises(ValueError, match="whole number of samples"):  # not silently 50
+        Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=50.5)
+    assert Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=np.int64(4)).warmup == 4
+    assert Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=4.0).warmup == 4
 
 
 def test_with_noise_is_the_one_noise_injection():

@@ -26,7 +26,7 @@ import difflib
 import glob
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -276,7 +276,7 @@ def _collect(files: list[Path], per_file, name: str | None, default: str) -> Rec
 def read_table(path, time: str | None = "t", input: str = "x", output: str = "y", conditions=(),
                record: str | None = None, units: dict | None = None, extra=None, name: str | None = None,
                fs: float | None = None, min_samples: int = 2, read_options: dict | None = None,
-               max_file_mb: float | None = MAX_FILE_MB, controls=None) -> RecordSet:
+               max_file_mb: float | None = MAX_FILE_MB, controls=None, warmup: int = 0) -> RecordSet:
     """Read csv/tsv/parquet files into a ``RecordSet``.
 
     Parameters
@@ -298,6 +298,9 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
         ``{"encoding": "utf-16"}``, ``{"decimal": ","}``; a file that needs one is an error naming it.
     max_file_mb : larger files are refused (with their size) before they are read; None: no limit. Text
         files above 16 MB are read in chunks, with their progress shown.
+    warmup : leading samples of every record that are simulated but not scored (``Record.warmup``): a periodic
+        steady-state record extended at the front by its own last samples, so that a model started from rest
+        has settled when scoring begins.
 
     Returns
     -------
@@ -312,7 +315,10 @@ def read_table(path, time: str | None = "t", input: str = "x", output: str = "y"
         return records_from_frame(read_frame(f, read_options, max_file_mb), mapping, str(f), stem, units,
                                   min_samples)
 
-    return _checked(_collect(files, per_file, name, Path(str(path)).stem), mapping, "column")
+    records = _checked(_collect(files, per_file, name, Path(str(path)).stem), mapping, "column")
+    if warmup:
+        records = RecordSet([replace(r, warmup=warmup) for r in records], name=records.name)
+    return records
 
 
 def _read_arrays(path, loader, time, input, output, conditions, record, units, extra, name, fs,

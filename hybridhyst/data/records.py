@@ -164,6 +164,8 @@ class Record:
         self.controls = {k: arrays[f"control {k}"] for k in self.controls}
         self.conditions = {k: _plain(v) for k, v in dict(self.conditions).items()}
         self.units = {"t": "s", **dict(self.units)}
+        if not isinstance(self.warmup, (int, np.integer, float, np.floating)) or float(self.warmup) != int(self.warmup):
+            raise ValueError(f"{where}: warmup is a whole number of samples, got {self.warmup!r}")
         self.warmup = int(self.warmup)
         if not 0 <= self.warmup < len(self.t):
             raise ValueError(f"{where}: warmup must be in [0, {len(self.t)}) samples, got {self.warmup}")
