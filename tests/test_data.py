@@ -283,6 +283,9 @@ def test_warmup_is_validated_and_follows_slices():
         Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=50.5)
     assert Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=np.int64(4)).warmup == 4
     assert Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=4.0).warmup == 4
+    for bad in (True, float("inf"), float("nan"), "3"):
+        with pytest.raises(ValueError, match="whole number of samples"):
+            Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=bad)
 
 
 def test_with_noise_is_the_one_noise_injection():

@@ -42,6 +42,22 @@ def test_the_diagnostics_read_the_scored_samples_only():
     assert d["whiteness"]["white"] and max(d["dependence"].values()) < 0.05
 
 
+def test_the_loop_counts_the_samples_its_fits_score(float64):
+    """With warm-ups, the training error the loop derives from a fit's sum of squares (steps, the rule's criterion
+    and its noise cap) is the reported one over the scored samples."""
+    import dataclasses
+
+    from hybridhyst.discover.loop import Loop
+    from hybridhyst.discover.settings import DiscoverSettings
+
+    records = [dataclasses.replace(r, warmup=len(r) // 4) for r in make_records("coulomb", noise_sd=NOISE)]
+    settings = DiscoverSettings().replace(split=SPLIT, conditions=False, noise_sd=NOISE, **FAST)
+    loop = Loop(records, base_model("coulomb"), settings)
+    loop.nominal()
+    assert math.sqrt(loop.fit.sse / loop.n_train) == pytest.approx(loop.before["train"]["rmse"], rel=1e-9)
+    assert loop.n_train == loop.before["train"]["n"]
+
+
 def test_a_structure_whose_sign_changes_with_the_condition_is_still_seen():
     """A missing trend: the residual is (level − mean level) × a function of the loop phase, so pooled over the
     levels its mean in every phase bin is 0 while within each level it is a function of the phase; η² is

@@ -462,6 +462,29 @@ def test_a_re_centred_pass_is_kept_where_it_gains_or_finds_the_optimum_and_undon
     assert float(m.effects["coulomb"].params["Fc"].value) == pytest.approx(first.x["coulomb.Fc"], rel=1e-12)
 
 
+def test_warm_ups_of_records_of_two_lengths_interleaved(dahl_data):
+    """Records of two lengths in turn (two groups whose records are not neighbours), each with its own warm-up:
+    the cost, the per-record errors and the residuals are those of each record's samples after its warm-up."""
+    clean = dahl_data[0]
+    rng = np.random.default_rng(4)
+    short = clean.slice(0, 201)
+    records = [dataclasses.replace(r, name=f"r{i}", y=r.y + 0.05 * rng.standard_normal(len(r)), warmup=w)
+               for i, (r, w) in enumerate([(clean, 40), (short, 10), (clean, 0), (short, 25)])]
+    problem = _problem(records)
+    X = problem.space.initial()[None].repeat(2, 1)
+    X[1, 2] *= 0.7
+    groups = problem.predict_groups(X)
+    pred = {j: groups[g][:, col] for g, (idx, *_) in enumerate(problem.groups) for col, j in enumerate(idx)}
+    res = [pred[j][:, r.warmup:] - torch.as_tensor(r.y[r.warmup:]) for j, r in enumerate(records)]
+    assert problem.n_samples == sum(e.shape[1] for e in res) == 301 + 201 - 40 - 10 + 301 + 201 - 25
+    assert torch.allclose(problem.cost(X), sum(e.square().sum(1) for e in res) / problem.n_samples)
+    assert torch.allclose(problem.record_mse(X), torch.stack([e.square().mean(1) for e in res], 1))
+    by_group = [torch.cat([res[j] for j in idx], 1) for idx, *_ in problem.groups]  # record-major within a group
+    assert torch.allclose(problem.residuals(X), torch.cat(by_group, 1))
+    r, J = problem.jacobian_rows(X, torch.ones(problem.space.dim, dtype=torch.bool))
+    assert torch.allclose(r, problem.residuals(X)) and J.shape[1] == problem.n_samples
+
+
 def test_warm_up_samples_are_simulated_but_not_scored(dahl_data):
     """A record's ``warmup`` samples (``Record``: simulated, not scored) leave every least-squares quantity
     untouched, whatever they hold; records of one length with different warm-ups are batched together."""

@@ -164,7 +164,8 @@ class Record:
         self.controls = {k: arrays[f"control {k}"] for k in self.controls}
         self.conditions = {k: _plain(v) for k, v in dict(self.conditions).items()}
         self.units = {"t": "s", **dict(self.units)}
-        if not isinstance(self.warmup, (int, np.integer, float, np.floating)) or float(self.warmup) != int(self.warmup):
+        whole = isinstance(self.warmup, (int, np.integer, float, np.floating)) and not isinstance(self.warmup, bool)
+        if not whole or not math.isfinite(self.warmup) or float(self.warmup) != int(self.warmup):
             raise ValueError(f"{where}: warmup is a whole number of samples, got {self.warmup!r}")
         self.warmup = int(self.warmup)
         if not 0 <= self.warmup < len(self.t):

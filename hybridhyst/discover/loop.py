@@ -104,7 +104,7 @@ class Loop:
         self.trend_values = dict(cond_values)  # the conditions a parameter may depend on (a leftover network's too)
         check_conditions(Split(self.train, self.val, self.test), conditions_used(nominal),
                          "the nominal model (a parameter as a function of a condition)")
-        self.n_train = sum(len(r) for r in self.train)
+        self.n_train = sum(len(r) - r.warmup for r in self.train)  # the scored samples the fits' SSE covers
         for r in self.train:
             r.require_samples(16, "discovery (identifying a candidate effect)")
         self.score = Validation(o.validation, self.train, self.val, lm_steps=o.lm_steps,

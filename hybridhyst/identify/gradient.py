@@ -270,7 +270,8 @@ def fit_gradient(model: nn.Module, records: Record | RecordSet | Sequence[Record
     last_change = (history[-2] - history[-1]) / abs(history[-2]) if len(history) > 1 and history[-2] else math.nan
     stop = done["stop"]
     return FitResult(model=model, loss=done["best"], history=history,
-                     steps={"adam": done["adam"], "lbfgs": done["lbfgs"]}, n_samples=sum(len(r) for r in data),
+                     steps={"adam": done["adam"], "lbfgs": done["lbfgs"]},
+                     n_samples=sum(len(r) - r.warmup for r in data),
                      evaluations=done["evaluations"], wall_s=time.perf_counter() - start, substeps=substeps,
                      resolution=resolution, converged=None if stop is None else stop == "converged", stop=stop,
                      last_change=last_change)

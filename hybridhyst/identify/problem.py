@@ -42,9 +42,10 @@ class RecordsProblem:
         # call (rates are taken on the grid as given, as before)
         self.groups = [(b.index, b.t[0] if bool((b.t == b.t[:1]).all()) else b.t, with_rates(b.inputs, b.t), b.y,
                         b.conditions) for b in record_batches(self.records, input_channels, dtype)]
-        # each record's first ``warmup`` samples are simulated, not scored: per group, the flat indices (record-major)
-        # of its scored samples, None where every sample is scored (no copy)
-        self._scored = [_scored_samples([self.records[j].warmup for j in g[0]], g[3].shape[1]) for g in self.groups]
+        # each record's first ``warmup`` samples are simulated, not scored: per group, which samples are scored
+        # ``(R, T)`` and their flat indices (record-major); None where every sample is (no copy)
+        self._masks = [_scored_mask([self.records[j].warmup for j in g[0]], g[3].shape[1]) for g in self.groups]
+        self._scored = [None if m is None else m.reshape(-1).nonzero().reshape(-1) for m in self._masks]
         self.n_samples = sum(len(r) - r.warmup for r in self.records)  # the scored samples
         self.y_flat = torch.cat([_select(g[3].reshape(1, -1), keep)[0] for g, keep in zip(self.groups, self._scored)])
         self._prepared: dict[int, Prepared] = {}  # per group: its inputs for the largest population yet
@@ -85,13 +86,13 @@ class RecordsProblem:
     def record_mse(self, X: torch.Tensor) -> torch.Tensor:
         """Mean squared error over each record's scored samples ``(N, records)``, columns in the records' order."""
         out = torch.empty(X.shape[0], len(self.records), dtype=torch.float64)
-        for (idx, _, _, Y, _), pred, keep in zip(self.groups, self.predict_groups(X), self._scored):
+        for (idx, _, _, Y, _), pred, mask in zip(self.groups, self.predict_groups(X), self._masks):
             sq = (pred - Y[None]).square()
-            if keep is None:
+            if mask is None:
                 out[:, idx] = sq.mean(dim=2).to(torch.float64)
             else:
-                scored = torch.arange(Y.shape[1]) >= torch.tensor([self.records[j].warmup for j in idx])[:, None]
-                out[:, idx] = (sq.where(scored, 0.0).sum(dim=2) / scored.sum(dim=1)).to(torch.float64)
+                mask = mask.to(sq.device)
+                out[:, idx] = (sq.where(mask, 0.0).sum(dim=2) / mask.sum(dim=1)).to(torch.float64)
         return out
 
     def residuals(self, X: torch.Tensor) -> torch.Tensor:
@@ -179,12 +180,11 @@ class RecordsProblem:
         return sse / self.n_samples
 
 
-def _scored_samples(warmups: list[int], T: int) -> torch.Tensor | None:
-    """Flat indices (record-major, ``len(warmups)`` records of ``T`` samples) of the samples after each record's
-    warm-up; None where no record has one."""
+def _scored_mask(warmups: list[int], T: int) -> torch.Tensor | None:
+    """``(records, T)``: true at the samples after each record's warm-up; None where no record has one."""
     if not any(warmups):
         return None
-    return torch.cat([torch.arange(r * T + w, (r + 1) * T) for r, w in enumerate(warmups)])
+    return torch.arange(T)[None, :] >= torch.tensor(warmups)[:, None]
 
 
 def _select(x: torch.Tensor, keep: torch.Tensor | None) -> torch.Tensor:

@@ -190,7 +190,8 @@ def vpptd_records(name, c, k, k2, Ms, *, clearance=0.0, stribeck=(0.0, 1.0), tau
     φ̇ in rad/s in the viscous term, torque in Nm; exact sign; optional exact play on the angle (mounting
     clearance), Stribeck weakening (dFs [Nm], vs [deg/s]; dFs a constant or, like the base parameters, a function
     of p) and a delay τ [s] of the measured torque; ``phase`` −π/2 starts the test from rest at −10° (what a
-    delayed channel needs: the rig is at rest before t = 0)."""
+    delayed channel needs: the rig is at rest before t = 0). A delayed model holds the first sample, rates
+    included, before t0: at rest the two agree but for the acceleration at t = 0, which no law here reads."""
     from ..data.records import Record, RecordSet
 
     rng = np.random.default_rng(seed)
