@@ -47,6 +47,23 @@ def test_datamodule_splits_windows_and_normalises_on_training_records_only():
     assert whole["t"].shape == (200,) and whole["mask"].sum() == 200 and whole["cond"].tolist() == [3.0]
 
 
+def test_a_records_warm_up_is_masked_in_every_window_and_whole_record():
+    """``Record.warmup`` samples are simulated, not scored: a training window that starts inside it is masked up
+    to its end (beside the window's own ``warmup``), a validation or test record over it."""
+    import dataclasses
+
+    loops = RecordSet([dataclasses.replace(r, warmup=30) for r in _loops()], "loops")
+    dm = RecordDataModule(loops, held_out={"level": [3.0]}, val={"level": [2.0]}, window=50, warmup=10, stride=25,
+                          batch_size=4)
+    first, later, third = dm._train[0], dm._train[1], dm._train[2]
+    assert first["mask"][:30].sum() == 0 and first["mask"][30:].sum() == 20  # record warm-up to sample 30
+    assert later["mask"][:10].sum() == 0 and later["mask"][10:].sum() == 40  # 25 + 5 samples: the window's own
+    assert third["mask"].sum() == 40
+    for split in ("val", "test"):
+        whole = dm.whole(split)[0]
+        assert whole["mask"][:30].sum() == 0 and whole["mask"].sum() == 170
+
+
 def test_datamodule_train_fraction_is_a_seeded_subset():
     kw = dict(held_out={"level": [3.0]}, window=20, warmup=2, stride=10)
     full = RecordDataModule(_loops(), **kw)

@@ -43,8 +43,9 @@ def condition_label(record: Record, names: Sequence[str] | None = None) -> str:
 
 
 def prepare_record(record: Record, factor: int = 1, controls: Sequence[str] = ()) -> dict[str, np.ndarray]:
-    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64), and
-    ``controls`` ``(time, C)``: the record's control channels named ``controls``, in that order."""
+    """Thin ``record`` to every ``factor``-th sample; channels t (from 0), u, du, ddu, dddu and y (float64),
+    ``controls`` ``(time, C)``: the record's control channels named ``controls``, in that order, and ``scored``:
+    false at the leading samples that are simulated, not scored (``Record.warmup``, thinned with it)."""
     (r,) = decimate_all([record], factor, "training")
     t = np.asarray(r.t, dtype=np.float64) - float(r.t[0])
     u = np.asarray(r.x, dtype=np.float64)
@@ -53,7 +54,7 @@ def prepare_record(record: Record, factor: int = 1, controls: Sequence[str] = ()
     dddu = np.gradient(ddu, t, edge_order=2)
     ctl = np.stack([r.controls[c] for c in controls], axis=1) if controls else np.zeros((len(t), 0))
     return {"t": t, "u": u, "du": du, "ddu": ddu, "dddu": dddu, "y": np.asarray(r.y, dtype=np.float64),
-            "controls": ctl}
+            "controls": ctl, "scored": np.arange(len(t)) >= r.warmup}
 
 
 @dataclass
@@ -123,7 +124,7 @@ class _Sequences(Dataset):
         p = self.prepared[i]
         e = len(p["t"]) if self.window is None else s + self.window
         item = {key: torch.tensor(p[key][s:e]) for key in ("t", "u", "du", "ddu", "dddu", "y", "controls")}
-        mask = torch.ones(e - s, dtype=torch.float64)
+        mask = torch.tensor(p["scored"][s:e], dtype=torch.float64)  # not the record's warm-up (``Record.warmup``)
         if self.window is not None and s > 0:
             mask[: self.warmup] = 0.0  # the state starts from rest: its first samples are not scored
         dy = np.gradient(p["y"][s: s + 3], p["t"][s: s + 3])[0] if e - s >= 3 else 0.0
