@@ -84,10 +84,13 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--further", type=int, default=0,
                     help="discover's further for every case: candidates judged below the top when none of it passes "
                          "(default: 0, the library default)")
+    ap.add_argument("--revisit", action="store_true",
+                    help="discover's revisit for every case: each added effect tried as a special case of it with one "
+                         "more effect once the loop stopped short of the noise (default: off, the library default)")
     ap.add_argument("--write-readme", action="store_true", help=f"write the table into {README.relative_to(ROOT)}")
     args = ap.parse_args(argv)
     if args.write_readme and (args.validation != "records" or args.no_start_states or args.cross_check != "confirm"
-                               or args.further):
+                               or args.further or args.revisit):
         ap.error("--write-readme writes the table of the library's defaults; run the other settings with --json")
     if args.bed != "first":
         from hybridhyst.testbed.blind_cases import bed_cases
@@ -102,7 +105,8 @@ def main(argv=None) -> list[dict]:
     options = {**({"validation": args.validation} if args.validation != "records" else {}),
                **({"start_states": False} if args.no_start_states else {}),
                **({"cross_check": args.cross_check} if args.cross_check != "confirm" else {}),
-               **({"further": args.further} if args.further else {})} or None
+               **({"further": args.further} if args.further else {}),
+               **({"revisit": True} if args.revisit else {})} or None
     rows = run_bed([CASE_BY_NAME[n] for n in names], jobs=args.jobs, options=options, cost=_earlier_cost(args.json))
     wall = time.perf_counter() - start
     args_text = " ".join(argv if argv is not None else sys.argv[1:])

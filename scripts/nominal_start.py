@@ -35,8 +35,9 @@ VARIANTS = [("clean_friction", "coulomb"), ("clean_friction", "spring"), ("coulo
             ("clearance", "viscous"), ("vpptd_linear+clearance", "friction"), ("vpptd_linear+clearance", "cubic")]
 
 
-def run_variant(variant: tuple[str, str]) -> dict:
-    """Run the case from its nominal less one effect; the final model's effects, held-out RMSE / noise, wall."""
+def run_variant(variant: tuple[str, str, bool]) -> dict:
+    """Run the case from its nominal less one effect (``(case, effect key, revisit)``); the final model's effects,
+    held-out RMSE / noise, wall."""
     import torch
 
     from hybridhyst.discover import discover
@@ -44,14 +45,15 @@ def run_variant(variant: tuple[str, str]) -> dict:
     from hybridhyst.testbed.run import _init_worker
 
     _init_worker()
-    name, left_out = variant
+    name, left_out, revisit = variant
     case = CASE_BY_NAME[name]
     torch.set_default_dtype(torch.float64)
     nominal = case.nominal()
     nominal = nominal.with_effects({k: e for k, e in nominal.effects.items() if k != left_out})
     start = time.perf_counter()
     try:
-        report = discover(case.records(), nominal, split=case.split, noise_sd=case.noise, progress=False).report
+        report = discover(case.records(), nominal, split=case.split, noise_sd=case.noise, progress=False,
+                          revisit=revisit).report
     except Exception as exc:  # a crash is a row, not the end of the others
         return {"case": name, "left_out": left_out, "error": f"{type(exc).__name__}: {exc}",
                 "wall_s": time.perf_counter() - start}
@@ -99,14 +101,18 @@ def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", metavar="PATH")
+    ap.add_argument("--revisit", action="store_true", help="discover's revisit on (the library default: off)")
     ap.add_argument("--write-readme", action="store_true")
     args = ap.parse_args(argv)
+    if args.write_readme and args.revisit:
+        ap.error("--write-readme writes the table of the library's defaults; run --revisit with --json")
     start = time.perf_counter()
+    variants = [(*v, args.revisit) for v in VARIANTS]
     if args.jobs > 1:
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            rows = list(pool.map(run_variant, VARIANTS))
+            rows = list(pool.map(run_variant, variants))
     else:
-        rows = [run_variant(v) for v in VARIANTS]
+        rows = [run_variant(v) for v in variants]
     wall = time.perf_counter() - start
     bed = {r["name"]: r for r in json.loads((README.parent / "testbed.json").read_text())["rows"]}
     command = "PYTHONPATH=. python scripts/nominal_start.py " + " ".join(argv if argv is not None else sys.argv[1:])

@@ -13,6 +13,8 @@ rejected and undone) and runs one method per phase, in this order (``discover``)
    best ``top`` the rule picks one on validation error and information criterion, and accepts it or stops;
 4. ``removals`` after every accepted change: each effect removed, or replaced by a special case (``selection``);
 5. ``swaps``: each added effect against the rivals it beat when it was added, on the final model;
+   ``revisit`` (an option): where the model stopped short of the noise, each added effect replaced by a special
+   case of it together with one more effect;
 6. ``trends_of_added``: the parameters of effects a swap put in, as functions of the conditions (an effect a
    step accepts has them offered at once, by the same method);
 7. ``refit``: the chosen structure (and the nominal) refitted on training and validation records;
@@ -43,14 +45,14 @@ from .candidates import Scales, library_candidates, start_candidates
 from .conditions import as_records, control_ranges, trend_conditions
 from .diagnose import diagnose
 from .finish import finish
-from .fitting import Fit, fit_candidates, polish, prebuild, sse_at
+from .fitting import Fit, fit_candidate, fit_candidates, polish, prebuild, sse_at
 from .fitting import at as _at
 from .result import AFTER_ADDED, Change, DiscoveryResult, Step, parameter_values
 from .rule import Acceptance, Judged, information_criterion
-from .selection import simplify
+from .selection import simplify, ways_to_simplify
 from .settings import DiscoverSettings
 from .trends import MIN_LEVELS, fit_trends
-from .validation import Validation, condition_groups, improves, parts, record_metrics, rmse_on, simulated
+from .validation import Validation, condition_groups, errors, improves, parts, record_metrics, rmse_on, simulated
 
 __all__ = ["Change", "DiscoverSettings", "DiscoveryResult", "Step", "discover", "information_criterion"]
 
@@ -79,6 +81,7 @@ def discover(records, nominal, candidates: Sequence[str] | None = None, split: M
         loop.trends()
         loop.effects()
         loop.swaps()
+        loop.revisit()
         loop.trends_of_added()
         return loop.result()
 
@@ -392,6 +395,80 @@ class Loop:
         rivals = {name: [r for r in names if r not in self.tried] for name, names in self.rivals.items()}
         if any(rivals.values()):
             self.removals(rivals, settled=True)
+
+    def _room(self) -> bool:
+        """Whether a model at the noise level would pass the rule as a step over the current one (the loop
+        stopped short of the noise)."""
+        rule = self.rule
+        return bool(rule.noise) and all(e > rule.noise * (1 + self.options.margin)
+                                        and e * e - rule.noise**2 > rule.floor for e in errors(self.now.val))
+
+    def revisit(self) -> None:
+        """A first step can take a flexible element that stands in for two effects (Dahl's presliding lag for
+        Coulomb friction and a delay); once it is in, neither simpler effect alone passes. Where the loop stopped
+        short of the noise (``options.revisit``), each effect it added is refitted replaced by each of its special
+        cases, one greedy step is taken from there (the ``top`` best-ranked library effects, judged), and the
+        best of them the rule would accept as a step over the final model, which the cross-check confirms,
+        replaces it; every one tried is a step of the record, accepted or refused. Once one is accepted, its
+        removals, trends and start states follow as after any step, and the revisits end."""
+        o = self.options
+        if not o.revisit or not self._room():
+            return
+        final, final_judged = self.fit, self.now
+        for key in [k for k in final.model.effects if k not in self.initial.effects]:
+            effect = final.model.effects[key]
+            for case, reduced, cand, how in ways_to_simplify(final, key, self.scales):
+                if how != "special_case" or cand is None:
+                    continue
+                try:
+                    base = fit_candidate(cand, reduced, self.train, _at(self.sim, final), o.lm_steps, o.box_factor)
+                except (ValueError, RuntimeError):
+                    base = None
+                if base is None:
+                    continue
+                present = {e.name for e in base.model.effects.values()} | {effect.name}
+                cands = [c for c in library_candidates(base.model, self.scales, self.single_conditions, o.candidates,
+                                                       o.start_states, self.controls)
+                         if c.kind == "effect" and c.meta.get("effect") not in present]
+                if self.sim.backend == "fast":
+                    prebuild(cands, base.model, tuple(sorted(self.controls)))
+                ranking = fit_candidates(cands, base.model, self.train, _at(self.sim, base), o.lm_steps,
+                                         o.box_factor, int(o.workers), self._bar)
+                fitted = sorted([(c, f) for c, f in ranking if f is not None], key=lambda cf: cf[1].sse)
+                finals = [(c, f, self.judge(f)) for c, f in fitted[: int(o.top)]]
+                if not finals:
+                    continue
+                passing = [i for i, (_, _, j) in enumerate(finals) if self.rule.adds(j, final_judged)]
+                index = passing[self.rule.pick([finals[i][2] for i in passing])] if passing else \
+                    self.rule.pick([j for _, _, j in finals])
+                c, c_fit, judged = finals[index]
+                by = [*case, c.meta.get("effect", c.name)]
+                step = self._step(
+                    "+".join(by), "effect", f"{effect.name} replaced by {' + '.join(case)} (a special case of it) "
+                    f"with {c.name} ({c.describe.rstrip('.')}).", c_fit, judged, final_judged, bool(passing),
+                    when="revisit", replaces=effect.name, substeps=c_fit.substeps,
+                    new_coordinates={n: c_fit.coords.get(n) for n in [*cand.free, *c.free]},
+                    evidence={"explained_share": 1 - c_fit.sse / final.sse if final.sse > 0 else None,
+                              "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic,
+                                                       **parts(val=f[2].val)} for f in finals}},
+                    **({} if passing else {"refused_by": self.rule.refusal(judged, final_judged)}))
+                if passing:
+                    polished = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
+                    step.accepted = self._confirmed(step, polished)
+                if not step.accepted:
+                    self.rejected.append(step)
+                    continue
+                self.steps.append(step)
+                self.tried |= {effect.name, c.name}
+                self.removed.append(Change(effect=effect.name, key=key, kind="replaced", by=by, replacement="revisit",
+                                           val_before=final_judged.val, val_after=judged.val,
+                                           train_rmse=math.sqrt(polished.sse / self.n_train),
+                                           after_step=len(self.steps)))
+                self.fit, self.now = polished, self.judge(polished)
+                self.removals()
+                self.trends_of_added(set(final.model.effects))  # the special case's and the new effect's
+                self.starts_of_added(set(final.model.effects))
+                return
 
     def result(self) -> DiscoveryResult:
         """Refit the chosen structure, measure what is left and assemble the result (``finish.finish``)."""

@@ -166,13 +166,17 @@ def _paragraph(step: dict, before_rmse: float, unit: str, scored: str = "validat
 def change_sentence(change: dict, scored: str, unit: str) -> str:
     """One removal or replacement of ``simplify`` in words: "removed", "replaced by its special case ..." (a simpler
     set it contains, ``replacement: special_case``) or "swapped for ..." (a runner-up it beat when it was added,
-    ``replacement: rival_swap``: not a special case of it)."""
+    ``replacement: rival_swap``: not a special case of it) or "replaced by ... once the loop had stopped" (a special
+    case of it with one more effect, ``replacement: revisit``)."""
     g, by = change, " + ".join(change.get("by") or [])
     if not by:
         what = "removed: its contribution vanished"
     elif g.get("replacement") == "rival_swap":
         what = (f"swapped for {by}, a runner-up that validation turned down when {g['effect']} was added although "
                 "the information criterion preferred it (not a special case of it)")
+    elif g.get("replacement") == "revisit":
+        what = (f"replaced by {by} once the loop had stopped short of the noise: a special case of it with one more "
+                "effect chosen from there, which the rule accepts as a step over the final model")
     else:
         what = f"replaced by its special case {by}"
     moved = f"{_fmt(g['val_rmse_before'])} → {_fmt(g['val_rmse_after'])} {unit}{_other_parts(g, unit, True)}"

@@ -18,7 +18,7 @@ from .fitting import Fit, at, fit_candidate, polish, side_by_side
 from .result import Change
 from .rule import Acceptance, Judged
 
-__all__ = ["REPLACEMENTS", "combined", "refit_alternatives", "simplify"]
+__all__ = ["REPLACEMENTS", "combined", "refit_alternatives", "simplify", "ways_to_simplify"]
 
 
 def combined(candidates: list[Candidate]) -> Candidate:
@@ -38,10 +38,11 @@ def combined(candidates: list[Candidate]) -> Candidate:
                      meta={"effects": [c.name for c in candidates]})
 
 
-REPLACEMENTS = ("special_case", "rival_swap")  # why an effect was replaced: its special case, or a runner-up
+REPLACEMENTS = ("special_case", "rival_swap", "revisit")  # why an effect was replaced: its special case, a runner-up,
+# or a special case of it with one more effect (``Loop.revisit``)
 
 
-def _alternatives(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None, only_rivals=False):
+def ways_to_simplify(fit: Fit, key: str, scales, rivals: dict[str, list[str]] | None = None, only_rivals=False):
     """``(effects put in its place, model without it, candidate adding them or None, how)`` for each way to
     simplify effect ``key``: removal (``how`` None), then each of its special cases (``"special_case"``), less the
     effects the model already has (those stay and absorb it; a case they cover entirely is the removal), then each
@@ -124,7 +125,7 @@ def simplify(fit: Fit, now: Judged, train, sim, scales, rule: Acceptance, score,
         best = None
         only_rivals = settled and not changes
         alternatives = [(key, *alt) for key in fit.model.effects
-                        for alt in _alternatives(fit, key, scales, rivals, only_rivals)]
+                        for alt in ways_to_simplify(fit, key, scales, rivals, only_rivals)]
 
         def refit(alt, fit=fit):
             _, _, reduced, cand, _ = alt

@@ -58,7 +58,10 @@ class DiscoverSettings:
         after an effect is added do not count).
     top : best-ranked candidates compared on validation error; further : when the rule accepts none of them, the
         next ``further`` candidates of the ranking are judged too, and the one it prefers of those it accepts is
-        the step (0: the step is refused); lm_steps : LM iterations per round of
+        the step (0: the step is refused); revisit : once the loop has stopped short of the noise, each effect it
+        added is tried replaced by each of its special cases together with one more effect chosen from there (a
+        first step that took a flexible element standing in for two effects: Dahl for Coulomb and a delay), kept
+        where the rule would accept it as a step over the final model; lm_steps : LM iterations per round of
         a fit (more rounds while the cost still falls by more than 0.1 %, at most 4).
     noise_sd : known noise standard deviation of the response. The acceptance rule (``rule.Acceptance``) treats
         models whose mean squared errors differ by at most ``rule.NOISE_SHARE`` σ² as within the noise of each
@@ -106,6 +109,7 @@ class DiscoverSettings:
     max_steps: int = 4
     top: int = 3
     further: int = 0
+    revisit: bool = False
     lm_steps: int = 25
     box_factor: float = 10.0
     noise_sd: float | None = None
