@@ -277,6 +277,7 @@ def test_warmup_is_validated_and_follows_slices():
     t = np.arange(100) * 0.01
     rec = Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=10)
     assert rec.slice(step=2).warmup == 5 and rec.slice(4).warmup == 6 and rec.slice(20).warmup == 0
+    np.testing.assert_array_equal(rec.scored(rec.y), rec.y[10:])  # the samples after the warm-up
     with pytest.raises(ValueError, match="warmup must be in"):
         Record(name="r", t=t, x=np.sin(t), y=np.cos(t), warmup=100)
     with pytest.raises(ValueError, match="whole number of samples"):  # not silently 50

@@ -228,7 +228,7 @@ def run(cfg: DictConfig) -> dict:
                                 warn=lambda text: say(text, error=True))
         summary = _summary(cfg, model, result, records)
         summary["diverged"] = [d.to_dict() for d in diverged]
-        lags = [autocorrelation((np.asarray(r.y) - np.asarray(p)[:, 0])[r.warmup:])["lag_1"]
+        lags = [autocorrelation(r.scored(np.asarray(r.y) - np.asarray(p)[:, 0]))["lag_1"]
                 for r, p in zip(records, preds) if np.all(np.isfinite(np.asarray(p)))]
         summary["residual_lag_1"] = float(np.nanmean(lags)) if lags else None
     shown = list(records)[: max(1, int(cfg.report.max_figures))]

@@ -104,7 +104,7 @@ def _data_run(model, cfg) -> tuple[list[pd.DataFrame], dict]:
         for i, name in enumerate(_output_names(model)):
             frame[name] = y[:, i]
         frames.append(frame)
-        info[r.name] = {"samples": len(r), "rmse": rmse(y[r.warmup:, 0], r.y[r.warmup:]), "unit": r.units.get("y"),
+        info[r.name] = {"samples": len(r), "rmse": rmse(r.scored(y[:, 0]), r.scored(r.y)), "unit": r.units.get("y"),
                         **resolution}
     return frames, info
 

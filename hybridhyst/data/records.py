@@ -174,6 +174,11 @@ class Record:
     def __len__(self) -> int:
         return len(self.t)
 
+    def scored(self, values) -> np.ndarray:
+        """``values`` along this record's samples (time first: a residual, a feature) at its scored samples, those
+        after the ``warmup``."""
+        return np.asarray(values)[self.warmup:]
+
     @property
     def operating(self) -> dict:
         """The conditions that say where the record was run (its operating point): ``conditions`` without the

@@ -89,11 +89,10 @@ def diagnose(records, predictions, noise_sd: float | None = None) -> dict:
     conds: dict[str, list] = {}
     acs = []
     for rec, pred in zip(records, predictions):
-        w = rec.warmup  # simulated, not scored: a model started from rest settles there
-        r = (np.asarray(rec.y, float) - np.asarray(pred, float))[w:]
+        r = rec.scored(np.asarray(rec.y, float) - np.asarray(pred, float))  # a warm-up settles, unscored
         r_all.append(r)
         for k, v in features(rec.t, rec.x, {c: rec.controls[c] for c in controls}).items():
-            feats[k].append(v[w:])
+            feats[k].append(rec.scored(v))
         for k, v in rec.operating.items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 conds.setdefault(k, []).append(np.full(len(r), float(v)))

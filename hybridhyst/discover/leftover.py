@@ -62,8 +62,8 @@ def residual_network(train, train_pred, val=None, val_pred=None, steps: int = 30
         for rec, p in zip(records, preds):
             f = features(rec.t, rec.x)
             cols = [f["x"], f["v"], f["sign_v"], f["since_reversal"], *(rec.controls[c] for c in controls)]
-            X.append(np.stack(cols, 1)[rec.warmup:])  # the scored samples
-            R.append((np.asarray(rec.y) - p)[rec.warmup:])
+            X.append(rec.scored(np.stack(cols, 1)))
+            R.append(rec.scored(np.asarray(rec.y) - p))
         return np.concatenate(X), np.concatenate(R)
 
     X, R = table(train, train_pred)

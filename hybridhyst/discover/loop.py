@@ -314,15 +314,20 @@ class Loop:
                 return
         self.stopped = "max_steps"  # every step accepted an effect: the cap ended the loop, not the rule
 
+    def _rank(self, cands, fit: Fit) -> list:
+        """``[(candidate, Fit or None)]``: each of ``cands`` fitted on ``fit``'s model, lowest training error first."""
+        o = self.options
+        if self.sim.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
+            prebuild(cands, fit.model, tuple(sorted(self.controls)))
+        ranking = fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
+                                 int(o.workers), self._bar)
+        return sorted(ranking, key=lambda item: item[1].sse if item[1] is not None else math.inf)
+
     def _effect_step(self, cands, when: str | None = None) -> bool:
         """One step over ``cands``; whether a candidate was accepted. ``when``: said in the step's record (a step
         offered outside the greedy ranking: ``AFTER_ADDED``)."""
         o, fit = self.options, self.fit
-        if self.sim.backend == "fast":  # every candidate's compiled loops built side by side, before they are fitted
-            prebuild(cands, fit.model, tuple(sorted(self.controls)))
-        ranking = fit_candidates(cands, fit.model, self.train, _at(self.sim, fit), o.lm_steps, o.box_factor,
-                                  int(o.workers), self._bar)
-        ranking.sort(key=lambda item: item[1].sse if item[1] is not None else math.inf)
+        ranking = self._rank(cands, fit)
         # the current model at each candidate's sub-steps (one that needed finer steps is compared there), never
         # below its own (a candidate that gave a stiff element up may need fewer than the current model does)
         ref = {s: sse_at(fit, self.train, self.sim, max(s, fit.substeps))
@@ -351,8 +356,7 @@ class Loop:
         reference = Judged(self.now.val, ic_ref(c_fit))  # what the candidate was judged against
         step = self._step(cand.name, cand.kind, cand.describe, c_fit, judged, reference, accepted, evidence={
             "explained_share": evidence[cand.name], "ranking": evidence, "refitted": [f[0].name for f in finals],
-            "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic, **parts(val=f[2].val)}
-                         for f in finals}},
+            "compared": _compared(finals)},
             new_coordinates={n: c_fit.coords.get(n) for n in cand.free}, substeps=c_fit.substeps,
             **({"when": when} if when else {}),
             **({} if accepted else {"refused_by": self.rule.refusal(judged, reference)}))
@@ -430,29 +434,23 @@ class Loop:
                 cands = [c for c in library_candidates(base.model, self.scales, self.single_conditions, o.candidates,
                                                        o.start_states, self.controls)
                          if c.kind == "effect" and c.meta.get("effect") not in present]
-                if self.sim.backend == "fast":
-                    prebuild(cands, base.model, tuple(sorted(self.controls)))
-                ranking = fit_candidates(cands, base.model, self.train, _at(self.sim, base), o.lm_steps,
-                                         o.box_factor, int(o.workers), self._bar)
-                fitted = sorted([(c, f) for c, f in ranking if f is not None], key=lambda cf: cf[1].sse)
+                fitted = [(c, f) for c, f in self._rank(cands, base) if f is not None]
                 finals = [(c, f, self.judge(f)) for c, f in fitted[: int(o.top)]]
                 if not finals:
                     continue
-                passing = [i for i, (_, _, j) in enumerate(finals) if self.rule.adds(j, final_judged)]
-                index = passing[self.rule.pick([finals[i][2] for i in passing])] if passing else \
-                    self.rule.pick([j for _, _, j in finals])
+                index, accepted = self.rule.choose([j for _, _, j in finals],
+                                                   lambda i, finals=finals: self.rule.adds(finals[i][2], final_judged))
                 c, c_fit, judged = finals[index]
                 by = [*case, c.meta.get("effect", c.name)]
                 step = self._step(
                     "+".join(by), "effect", f"{effect.name} replaced by {' + '.join(case)} (a special case of it) "
-                    f"with {c.name} ({c.describe.rstrip('.')}).", c_fit, judged, final_judged, bool(passing),
+                    f"with {c.name} ({c.describe.rstrip('.')}).", c_fit, judged, final_judged, accepted,
                     when="revisit", replaces=effect.name, substeps=c_fit.substeps,
                     new_coordinates={n: c_fit.coords.get(n) for n in [*cand.free, *c.free]},
                     evidence={"explained_share": 1 - c_fit.sse / final.sse if final.sse > 0 else None,
-                              "compared": {f[0].name: {"val_rmse": f[2].val, "criterion": f[2].ic,
-                                                       **parts(val=f[2].val)} for f in finals}},
-                    **({} if passing else {"refused_by": self.rule.refusal(judged, final_judged)}))
-                if passing:
+                              "compared": _compared(finals)},
+                    **({} if accepted else {"refused_by": self.rule.refusal(judged, final_judged)}))
+                if accepted:
                     polished = polish(c_fit.model, self.train, _at(self.sim, c_fit), o.lm_steps, o.box_factor)
                     step.accepted = self._confirmed(step, polished)
                 if not step.accepted:
@@ -473,3 +471,8 @@ class Loop:
     def result(self) -> DiscoveryResult:
         """Refit the chosen structure, measure what is left and assemble the result (``finish.finish``)."""
         return finish(self)
+
+
+def _compared(finals: list) -> dict:
+    """The evidence of a step's finalists ``[(candidate, Fit, Judged)]``: each one's judged error and criterion."""
+    return {c.name: {"val_rmse": j.val, "criterion": j.ic, **parts(val=j.val)} for c, _, j in finals}

@@ -87,10 +87,10 @@ def residual_figure(result: DiscoveryResult, path: Path) -> Path:
               **{f"control:{c}": train[0].units.get(c) or "-" for c in controls}}
     for row, stage in enumerate(("before", "after")):
         feats = [features(r.t, r.x, {c: r.controls[c] for c in controls}) for r in train]
-        res = [(np.asarray(r.y) - p)[r.warmup:] for r, p in zip(train, result.predictions[stage]["train"])]
+        res = [r.scored(np.asarray(r.y) - p) for r, p in zip(train, result.predictions[stage]["train"])]
         for col, name in enumerate(names):
             ax = axes[row, col]
-            f = np.concatenate([fe[name][r.warmup:] for fe, r in zip(feats, train)])  # the scored samples
+            f = np.concatenate([r.scored(fe[name]) for fe, r in zip(feats, train)])
             r = np.concatenate(res)
             step = max(1, len(f) // 4000)
             ax.plot(f[::step], r[::step], ".", ms=1.2, alpha=0.4, color="C0" if row == 0 else "C2")

@@ -65,7 +65,7 @@ def interpolate(U: torch.Tensor, t: torch.Tensor, tq: torch.Tensor, slope: bool 
         idx = (torch.searchsorted(grid, tq.detach().contiguous()) - 1).clamp(0, T - 2)
         t0, t1 = torch.gather(grid, 1, idx), torch.gather(grid, 1, idx + 1)
     r = (tq - t0) / (t1 - t0)
-    # r <= 0 only before t1 of the first interval's start (held): no derivative there, for autograd too
+    # r <= 0 only at or before t0 (the input held): no derivative there, for autograd too
     w = torch.where(r > 0.0, r, torch.zeros_like(r)).clamp(max=1.0)[..., None]
     flat, first = U.reshape(B * T, C), (torch.arange(B, device=U.device) * T)[:, None]  # row b's samples at b·T
 
